@@ -1,0 +1,93 @@
+"""Camera framing: look down at the settled objects the way RefSpatial's scenes do.
+
+Each view draws a heading around the objects, a pitch below the horizon and a
+field of view, then the distance along the line of sight is chosen so that the
+camera height stays in the recipe's band and every object's box projects inside
+the image with a margin. Views that cannot satisfy both are redrawn; after
+``attempts`` the scene is rejected.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .compose import SceneRejected
+from .recipe import Recipe
+from .scene import Camera, Scene, matrix_to_quat
+from .seeding import stage_rng
+
+FIT_ITERATIONS = 30  # bisection steps on the viewing distance (sub-millimetre)
+
+
+def frame_cameras(scene: Scene, recipe: Recipe) -> Scene:
+    spec = recipe["camera"]
+    rng = stage_rng(recipe.hash, scene.seed, "camera")
+    corners = _object_corners(scene)
+    aim = np.array([*((corners[:, :2].min(0) + corners[:, :2].max(0)) / 2), scene.table.top_z_m])
+    cams = []
+    for view in range(spec["views"]):
+        cams.append(_frame_one(f"view{view}", corners, aim, spec, rng))
+    return dataclasses.replace(scene, cameras=tuple(cams))
+
+
+def look_rotation(yaw: float, pitch: float) -> np.ndarray:
+    """World <- MuJoCo camera rotation for a camera heading ``yaw``, tilted by ``pitch`` (radians)."""
+    forward = np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)])
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    return np.stack([right, up, -forward], axis=1)
+
+
+def project(points_world: np.ndarray, cam: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel coordinates (N, 2) and depths (N,) of world points in an OpenCV camera."""
+    T = cam.T_world_cam()
+    p_cam = (points_world - T[:3, 3]) @ T[:3, :3]
+    uvw = p_cam @ cam.intrinsics().T
+    return uvw[:, :2] / uvw[:, 2:3], p_cam[:, 2]
+
+
+def _object_corners(scene: Scene) -> np.ndarray:
+    out = []
+    for obj in scene.objects:
+        lo, hi = obj.asset.visual.bounds_m
+        box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        T = obj.pose.matrix()
+        out.append(box @ T[:3, :3].T + T[:3, 3])
+    return np.concatenate(out)
+
+
+def _frame_one(name: str, corners: np.ndarray, aim: np.ndarray, spec: dict, rng: np.random.Generator) -> Camera:
+    for _ in range(spec["attempts"]):
+        yaw = float(rng.uniform(-np.pi, np.pi))
+        pitch = float(np.radians(rng.uniform(*spec["pitch_deg"])))
+        fovy = float(rng.uniform(*spec["fovy_deg"]))
+        rot = look_rotation(yaw, pitch)
+        quat = matrix_to_quat(rot)
+        h_lo, h_hi = spec["height_above_table_m"]
+        d_lo, d_hi = h_lo / np.sin(-pitch), h_hi / np.sin(-pitch)
+
+        def camera_at(d: float) -> Camera:
+            pos = aim + d * rot[:, 2]  # the camera's +z points back, away from what it sees
+            return Camera(name, tuple(float(v) for v in pos), quat, fovy, spec["width"], spec["height"])
+
+        def fits(d: float) -> bool:
+            uv, z = project(corners, camera_at(d))
+            m = spec["margin_px"]
+            return bool(np.all(z > 0.05) and np.all(uv >= m) and np.all(uv[:, 0] <= spec["width"] - m)
+                        and np.all(uv[:, 1] <= spec["height"] - m))
+
+        if not fits(d_hi):
+            continue
+        d_min = d_lo if fits(d_lo) else _bisect(fits, d_lo, d_hi)
+        return camera_at(float(rng.uniform(d_min, d_hi)))
+    raise SceneRejected("no_camera_view", f"no {name} within the height band shows every object")
+
+
+def _bisect(fits, bad: float, good: float) -> float:
+    for _ in range(FIT_ITERATIONS):
+        mid = (bad + good) / 2
+        bad, good = (bad, mid) if fits(mid) else (mid, good)
+    return good

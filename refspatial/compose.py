@@ -1,0 +1,127 @@
+"""Scene composition: pick assets and lay them out on a table without overlap.
+
+Pure: ``compose(recipe, catalogue, seed)`` returns the same Scene for the same
+inputs. Cameras are framed later (``camera.py``), once physics has settled the
+objects, so that every object really is in view.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .assets import Catalogue, build_asset
+from .recipe import Recipe
+from .scene import Asset, Light, PlacedObject, Pose, Scene, Table, yaw_quat
+from .seeding import stage_rng
+
+PLACEMENT_TRIES = 200  # per object, before the scene is rejected as too crowded
+
+
+class SceneRejected(RuntimeError):
+    """A scene that cannot be made; ``reason`` is a short slug for the statistics."""
+
+    def __init__(self, reason: str, detail: str = "") -> None:
+        super().__init__(f"{reason}: {detail}" if detail else reason)
+        self.reason = reason
+
+
+def compose(recipe: Recipe, catalogue: Catalogue, seed: int) -> Scene:
+    table = _sample_table(recipe, stage_rng(recipe.hash, seed, "table"))
+    assets = _sample_assets(recipe, catalogue, stage_rng(recipe.hash, seed, "assets"))
+    objects = _place(recipe, table, assets, stage_rng(recipe.hash, seed, "layout"))
+    light = _sample_light(recipe, stage_rng(recipe.hash, seed, "light"))
+    return Scene(recipe.name, recipe.hash, seed, table, objects, cameras=(), light=light)
+
+
+def category_pool(recipe: Recipe, catalogue: Catalogue) -> list[str]:
+    wanted = recipe["objects"]["categories"]
+    if wanted == "all":
+        return sorted(catalogue.categories)
+    missing = [c for c in wanted if c not in catalogue.categories]
+    if missing:
+        raise ValueError(
+            f"{recipe.path}: objects.categories: {missing[0]!r} is not in the asset catalogue; "
+            f"known: {', '.join(sorted(catalogue.categories))}"
+        )
+    return list(wanted)
+
+
+def _sample_assets(recipe: Recipe, catalogue: Catalogue, rng: np.random.Generator) -> list[Asset]:
+    spec = recipe["objects"]
+    pool = category_pool(recipe, catalogue)
+    n = int(rng.integers(spec["count"][0], spec["count"][1] + 1))
+    chosen: list[str] = []
+    for _ in range(n):
+        # Repeats make ordinals ("the second mug from the left") necessary.
+        if chosen and rng.random() < spec["repeat_category"]:
+            chosen.append(chosen[int(rng.integers(len(chosen)))])
+        else:
+            chosen.append(pool[int(rng.integers(len(pool)))])
+    return [build_asset(catalogue, c, rng) for c in chosen]
+
+
+def _sample_table(recipe: Recipe, rng: np.random.Generator) -> Table:
+    spec = recipe["table"]
+    (xlo, xhi), (ylo, yhi) = spec["size_m"]
+    color = spec["colors"][int(rng.integers(len(spec["colors"])))]
+    texture = spec["textures"][int(rng.integers(len(spec["textures"])))]
+    return Table(
+        size_m=(float(rng.uniform(xlo, xhi)), float(rng.uniform(ylo, yhi))),
+        top_z_m=float(spec["top_z_m"]),
+        rgba=(*map(float, color), 1.0),
+        texture=texture,
+    )
+
+
+def _sample_light(recipe: Recipe, rng: np.random.Generator) -> Light:
+    spec = recipe["light"]
+    az = np.radians(rng.uniform(*spec["azimuth_deg"]))
+    el = np.radians(rng.uniform(*spec["elevation_deg"]))
+    direction = -np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    return Light(dir_world=tuple(float(v) for v in direction), intensity=float(rng.uniform(*spec["intensity"])))
+
+
+def footprint_corners(asset: Asset, x: float, y: float, yaw: float, grow_m: float = 0.0) -> np.ndarray:
+    """(4, 2) corners of the asset's rotated footprint box on the table."""
+    (x0, y0, _), (x1, y1, _) = asset.visual.bounds_m
+    local = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) + grow_m * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])
+    c, s = np.cos(yaw), np.sin(yaw)
+    return local @ np.array([[c, s], [-s, c]]) + np.array([x, y])
+
+
+def boxes_overlap(a: np.ndarray, b: np.ndarray) -> bool:
+    """Separating-axis test for two convex quads given as (4, 2) corners."""
+    for quad in (a, b):
+        edges = np.roll(quad, -1, axis=0) - quad
+        for nx, ny in np.stack([-edges[:, 1], edges[:, 0]], axis=1):
+            pa, pb = a @ (nx, ny), b @ (nx, ny)
+            if pa.max() < pb.min() or pb.max() < pa.min():
+                return False
+    return True
+
+
+def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Generator) -> tuple[PlacedObject, ...]:
+    spec = recipe["objects"]
+    side = float(rng.uniform(*recipe["table"]["region_m"]))
+    # The region may sit anywhere on the table that keeps it whole.
+    slack = np.maximum(np.array(table.size_m) - side, 0) / 2
+    centre = rng.uniform(-slack, slack)
+    placed: list[PlacedObject] = []
+    quads: list[np.ndarray] = []
+    # Big things first: they are the hardest to fit.
+    order = sorted(range(len(assets)), key=lambda i: -float(np.prod(assets[i].size_m[:2])))
+    for i in order:
+        asset = assets[i]
+        for _ in range(PLACEMENT_TRIES):
+            x, y = centre + rng.uniform(-side / 2, side / 2, size=2)
+            yaw = float(rng.uniform(-np.pi, np.pi))
+            quad = footprint_corners(asset, x, y, yaw, grow_m=spec["min_gap_m"] / 2)
+            inside = np.all(np.abs(quad) <= np.array(table.size_m) / 2 - 0.02)
+            if inside and not any(boxes_overlap(quad, q) for q in quads):
+                break
+        else:
+            raise SceneRejected("crowded", f"no room for a {asset.name} after {PLACEMENT_TRIES} tries")
+        quads.append(quad)
+        z = table.top_z_m + spec["drop_height_m"]
+        placed.append(PlacedObject(i, asset, Pose((float(x), float(y), z), yaw_quat(yaw))))
+    return tuple(sorted(placed, key=lambda o: o.object_id))

@@ -1,0 +1,239 @@
+"""Scene-family recipes: YAML data, validated once, hashed, read by every stage.
+
+A recipe may name another with ``extends: NAME``; the child's keys override the
+parent's, section by section. The recipe hash is the sha256 of the resolved
+recipe's canonical JSON, so reformatting the YAML does not change any scene.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import yaml
+
+from .paths import recipes_dir
+
+
+class RecipeError(ValueError):
+    """A recipe that cannot be used; the message names the file, key and fix."""
+
+
+@dataclass(frozen=True)
+class Recipe:
+    name: str
+    path: Path
+    data: dict[str, Any]  # resolved (extends applied) and validated
+    text: str  # the YAML text of this recipe's own file, stored in the records
+    hash: str
+
+    def __getitem__(self, section: str) -> dict[str, Any]:
+        return self.data[section]
+
+
+# --- the schema: section -> key -> checker -------------------------------------------------
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _range(lo: float = float("-inf"), hi: float = float("inf"), integer: bool = False) -> Callable:
+    def check(v: Any) -> str | None:
+        kind = "integers" if integer else "numbers"
+        ok_type = (lambda x: isinstance(x, int) and not isinstance(x, bool)) if integer else _number
+        if not (isinstance(v, list) and len(v) == 2 and all(ok_type(x) for x in v)):
+            return f"expected [min, max] of {kind}"
+        if not (lo <= v[0] <= v[1] <= hi):
+            return f"expected {lo} <= min <= max <= {hi}"
+        return None
+
+    return check
+
+
+def _scalar(lo: float, hi: float, integer: bool = False) -> Callable:
+    def check(v: Any) -> str | None:
+        if integer and not (isinstance(v, int) and not isinstance(v, bool)):
+            return "expected an integer"
+        if not _number(v):
+            return "expected a number"
+        return None if lo <= v <= hi else f"expected a value in [{lo}, {hi}]"
+
+    return check
+
+
+def _weights(keys: Callable[[Any], bool], what: str) -> Callable:
+    def check(v: Any) -> str | None:
+        if not isinstance(v, dict) or not v:
+            return "expected a non-empty mapping of weights"
+        bad = [k for k in v if not keys(k)]
+        if bad:
+            return f"unknown {what} {bad[0]!r}"
+        if any(not _number(w) or w < 0 for w in v.values()) or sum(v.values()) <= 0:
+            return "weights must be non-negative numbers with a positive sum"
+        return None
+
+    return check
+
+
+def _categories(v: Any) -> str | None:
+    if v == "all" or (isinstance(v, list) and v and all(isinstance(c, str) for c in v)):
+        return None
+    return 'expected "all" or a list of catalogue category keys'
+
+
+def _textures(v: Any) -> str | None:
+    allowed = {"checker", "gradient", "flat"}
+    if isinstance(v, list) and v and set(v) <= allowed:
+        return None
+    return f"expected a non-empty list drawn from {sorted(allowed)}"
+
+
+def _colors(v: Any) -> str | None:
+    if isinstance(v, list) and v and all(
+        isinstance(c, list) and len(c) == 3 and all(_number(x) and 0 <= x <= 1 for x in c) for c in v
+    ):
+        return None
+    return "expected a non-empty list of [r, g, b] with components in [0, 1]"
+
+
+def _size_ranges(v: Any) -> str | None:
+    if isinstance(v, list) and len(v) == 2 and all(_range(0.05, 20)(r) is None for r in v):
+        return None
+    return "expected [[xmin, xmax], [ymin, ymax]] in metres"
+
+
+FAMILIES = ("location", "choice")
+MAX_STEPS = 3
+
+SCHEMA: dict[str, dict[str, Callable[[Any], str | None]]] = {
+    "objects": {
+        "count": _range(1, 40, integer=True),
+        "categories": _categories,
+        "repeat_category": _scalar(0, 1),
+        "min_gap_m": _scalar(0, 0.5),
+        "drop_height_m": _scalar(0, 0.2),
+    },
+    "table": {
+        "size_m": _size_ranges,
+        "top_z_m": _scalar(0.1, 3),
+        "colors": _colors,
+        "textures": _textures,
+        "region_m": _range(0.1, 5),
+    },
+    "camera": {
+        "views": _scalar(1, 16, integer=True),
+        "width": _scalar(16, 8192, integer=True),
+        "height": _scalar(16, 8192, integer=True),
+        "pitch_deg": _range(-89, -1),
+        "height_above_table_m": _range(0.05, 10),
+        "fovy_deg": _range(10, 120),
+        "margin_px": _scalar(0, 1000, integer=True),
+        "attempts": _scalar(1, 1000, integer=True),
+    },
+    "light": {
+        "intensity": _range(0, 5),
+        "azimuth_deg": _range(-360, 720),
+        "elevation_deg": _range(1, 90),
+    },
+    "physics": {
+        "timestep_s": _scalar(1e-4, 0.02),
+        "settle_s": _scalar(0.01, 10),
+        "max_speed_m_s": _scalar(0, 10),
+        "max_tilt_deg": _scalar(0, 180),
+        "max_shift_m": _scalar(0, 10),
+    },
+    "questions": {
+        "per_view": _scalar(0, 200, integer=True),
+        "attempts_per_question": _scalar(1, 1000, integer=True),
+        "answer_points": _scalar(1, 32, integer=True),
+        "families": _weights(lambda k: k in FAMILIES, "question family"),
+        "steps": _weights(lambda k: isinstance(k, int) and 1 <= k <= MAX_STEPS, "step count"),
+    },
+}
+TOP_LEVEL = {"name", "description", "extends", *SCHEMA}
+
+
+# --- loading ----------------------------------------------------------------------------------
+
+
+def resolve_path(name_or_path: str) -> Path:
+    """A recipe given as a file path, or as the name of a file in recipes/."""
+    p = Path(name_or_path)
+    if p.suffix in (".yaml", ".yml") or p.exists():
+        if not p.is_file():
+            raise RecipeError(f"recipe file {p} does not exist; pass an existing .yaml file or a recipe name")
+        return p
+    candidate = recipes_dir() / f"{name_or_path}.yaml"
+    if not candidate.is_file():
+        known = ", ".join(available()) or "none"
+        raise RecipeError(f"unknown recipe {name_or_path!r}; choose one of: {known}, or pass a .yaml path")
+    return candidate
+
+
+def available() -> list[str]:
+    return sorted(p.stem for p in recipes_dir().glob("*.yaml"))
+
+
+def load_recipe(name_or_path: str) -> Recipe:
+    path = resolve_path(name_or_path)
+    text = path.read_text(encoding="utf-8")
+    data = _resolve(path, seen=())
+    _validate(path, data)
+    canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
+    digest = hashlib.sha256(canonical.encode()).hexdigest()
+    return Recipe(name=data["name"], path=path, data=data, text=text, hash=digest)
+
+
+def _read_yaml(path: Path) -> dict[str, Any]:
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark else ""
+        raise RecipeError(f"{path}:{where} is not valid YAML ({getattr(exc, 'problem', exc)}); fix the syntax") from None
+    if not isinstance(raw, dict):
+        raise RecipeError(f"{path}: expected a mapping of sections at the top level")
+    return raw
+
+
+def _resolve(path: Path, seen: tuple[Path, ...]) -> dict[str, Any]:
+    if path in seen:
+        raise RecipeError(f"{path}: 'extends' forms a cycle through {', '.join(p.name for p in seen)}")
+    own = _read_yaml(path)
+    parent_name = own.pop("extends", None)
+    if parent_name is None:
+        return own
+    if not isinstance(parent_name, str):
+        raise RecipeError(f"{path}: extends: expected the name of another recipe")
+    parent = _resolve(resolve_path(parent_name), seen + (path,))
+    merged = dict(parent)
+    for key, value in own.items():
+        if isinstance(value, dict) and isinstance(parent.get(key), dict):
+            merged[key] = {**parent[key], **value}
+        else:
+            merged[key] = value
+    return merged
+
+
+def _validate(path: Path, data: dict[str, Any]) -> None:
+    unknown = sorted(set(data) - TOP_LEVEL)
+    if unknown:
+        raise RecipeError(f"{path}: unknown section {unknown[0]!r}; sections are {sorted(TOP_LEVEL)}")
+    if not isinstance(data.get("name"), str) or not data["name"].replace("_", "").isalnum():
+        raise RecipeError(f"{path}: name: expected a short identifier such as 'tabletop'")
+    for section, checks in SCHEMA.items():
+        values = data.get(section)
+        if not isinstance(values, dict):
+            raise RecipeError(f"{path}: {section}: missing section (expected keys {sorted(checks)})")
+        for key in sorted(set(values) - set(checks)):
+            raise RecipeError(f"{path}: {section}.{key}: unknown key; known keys are {sorted(checks)}")
+        for key, check in checks.items():
+            if key not in values:
+                raise RecipeError(f"{path}: {section}.{key}: missing")
+            problem = check(values[key])
+            if problem:
+                raise RecipeError(f"{path}: {section}.{key}: {problem}, got {values[key]!r}")

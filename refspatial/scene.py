@@ -1,0 +1,161 @@
+"""The scene model: plain, frozen data passed between stages.
+
+Frames and units are in the names. World frame: metres, +z up (gravity is -z).
+Object frame: origin at the centre of the object's footprint on its resting
+surface, +z up, +x the object's semantic front. Camera frame (MuJoCo): the camera
+looks along -z, +y is up in the image, +x is right.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class MeshData:
+    """A triangle mesh in the object frame."""
+
+    vertices_m: np.ndarray  # (N, 3) float64
+    faces: np.ndarray  # (M, 3) int32, counter-clockwise seen from outside
+
+    @property
+    def bounds_m(self) -> np.ndarray:
+        """(2, 3) array: min corner, max corner."""
+        return np.stack([self.vertices_m.min(axis=0), self.vertices_m.max(axis=0)])
+
+
+@dataclass(frozen=True, eq=False)
+class Asset:
+    """One concrete object: geometry, look and semantics, ready to place."""
+
+    category: str  # catalogue key, e.g. "mug"
+    name: str  # short noun used in text, e.g. "mug"
+    color: str  # colour word, e.g. "red"
+    rgba: tuple[float, float, float, float]
+    material: str  # e.g. "ceramic"
+    visual: MeshData
+    collision: tuple[MeshData, ...]  # convex parts; together they approximate visual
+    front_local: tuple[float, float, float]  # unit vector, object frame
+    front_side: str  # name of the semantic front, e.g. "handle"
+    params: dict[str, float] = field(default_factory=dict)  # sampled shape parameters
+    licence: str = "project-own (procedural)"
+
+    @property
+    def size_m(self) -> np.ndarray:
+        """Extents (x, y, z) of the visual mesh's box in the object frame."""
+        b = self.visual.bounds_m
+        return b[1] - b[0]
+
+
+@dataclass(frozen=True)
+class Pose:
+    pos_world_m: tuple[float, float, float]
+    quat_wxyz: tuple[float, float, float, float]
+
+    def matrix(self) -> np.ndarray:
+        """4x4 homogeneous transform world <- object."""
+        T = np.eye(4)
+        T[:3, :3] = quat_to_matrix(self.quat_wxyz)
+        T[:3, 3] = self.pos_world_m
+        return T
+
+
+@dataclass(frozen=True, eq=False)
+class PlacedObject:
+    object_id: int  # 0..n-1 within the scene; segmentation uses the same ids
+    asset: Asset
+    pose: Pose
+
+
+@dataclass(frozen=True)
+class Table:
+    size_m: tuple[float, float]  # extents along world x and y
+    top_z_m: float
+    rgba: tuple[float, float, float, float]
+    texture: str  # a MuJoCo builtin: "checker", "gradient" or "flat"
+
+
+@dataclass(frozen=True)
+class Camera:
+    name: str
+    pos_world_m: tuple[float, float, float]
+    quat_wxyz: tuple[float, float, float, float]  # world <- MuJoCo camera frame
+    fovy_deg: float
+    width: int
+    height: int
+
+    def intrinsics(self) -> np.ndarray:
+        """3x3 pinhole K in pixels (OpenCV convention, origin at the top-left pixel corner)."""
+        f = 0.5 * self.height / np.tan(np.radians(self.fovy_deg) / 2)
+        return np.array([[f, 0.0, self.width / 2], [0.0, f, self.height / 2], [0.0, 0.0, 1.0]])
+
+    def T_world_cam(self) -> np.ndarray:
+        """4x4 world <- camera in the OpenCV convention (+z forward, +y down)."""
+        T = np.eye(4)
+        T[:3, :3] = quat_to_matrix(self.quat_wxyz) @ np.diag([1.0, -1.0, -1.0])
+        T[:3, 3] = self.pos_world_m
+        return T
+
+
+@dataclass(frozen=True)
+class Light:
+    dir_world: tuple[float, float, float]  # direction the light shines along
+    intensity: float  # multiplier on the recipe's base diffuse colour
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A composed scene. Before settling, object poses are the drop poses."""
+
+    recipe_name: str
+    recipe_hash: str
+    seed: int
+    table: Table
+    objects: tuple[PlacedObject, ...]
+    cameras: tuple[Camera, ...]
+    light: Light
+
+    @property
+    def scene_id(self) -> str:
+        return f"{self.recipe_name}-{self.recipe_hash[:8]}-{self.seed}"
+
+
+def quat_to_matrix(q: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
+    """Rotation matrix of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def matrix_to_quat(R: np.ndarray) -> tuple[float, float, float, float]:
+    """Unit quaternion (w, x, y, z), w >= 0, of a rotation matrix."""
+    m = np.asarray(R, dtype=float)
+    t = np.trace(m)
+    if t > 0:
+        s = 2.0 * np.sqrt(t + 1.0)
+        q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
+        q = [0.0, 0.0, 0.0, 0.0]
+        q[0] = (m[k, j] - m[j, k]) / s
+        q[1 + i] = 0.25 * s
+        q[1 + j] = (m[j, i] + m[i, j]) / s
+        q[1 + k] = (m[k, i] + m[i, k]) / s
+    q = np.array(q) / np.linalg.norm(q)
+    if q[0] < 0:
+        q = -q
+    return tuple(float(v) for v in q)
+
+
+def yaw_quat(yaw_rad: float) -> tuple[float, float, float, float]:
+    """Rotation about world +z."""
+    return (float(np.cos(yaw_rad / 2)), 0.0, 0.0, float(np.sin(yaw_rad / 2)))
