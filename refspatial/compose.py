@@ -15,6 +15,7 @@ from .scene import Asset, Light, PlacedObject, Pose, Scene, Table, yaw_quat
 from .seeding import stage_rng
 
 PLACEMENT_TRIES = 200  # per object, before the scene is rejected as too crowded
+MAX_FILL = 0.3  # footprints may cover at most this share of the placement region
 
 
 class SceneRejected(RuntimeError):
@@ -103,6 +104,9 @@ def boxes_overlap(a: np.ndarray, b: np.ndarray) -> bool:
 def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Generator) -> tuple[PlacedObject, ...]:
     spec = recipe["objects"]
     side = float(rng.uniform(*recipe["table"]["region_m"]))
+    # Grow the region for big object sets (several plates) instead of rejecting them.
+    area = sum(float(np.prod(a.size_m[:2] + spec["min_gap_m"])) for a in assets)
+    side = min(max(side, np.sqrt(area / MAX_FILL)), min(table.size_m) - 0.05)
     # The region may sit anywhere on the table that keeps it whole.
     slack = np.maximum(np.array(table.size_m) - side, 0) / 2
     centre = rng.uniform(-slack, slack)

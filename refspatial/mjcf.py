@@ -66,6 +66,9 @@ def _visual_settings(spec: mujoco.MjSpec, scene: Scene, opts: SpecOptions) -> No
     spec.visual.headlight.diffuse = [0.25, 0.25, 0.25]
     spec.visual.headlight.specular = [0.0, 0.0, 0.0]
     spec.visual.map.znear = 0.01  # fraction of the model extent; keeps depth precise up close
+    # The sun's shadow map covers half the extent around the table: spent on the
+    # whole floor it leaves too few texels, and the floor shows shadow acne.
+    spec.visual.map.shadowclip = 0.5
     spec.stat.extent = 2.0
     spec.stat.center = [0.0, 0.0, scene.table.top_z_m]
 

@@ -23,15 +23,23 @@ POINT_TRIES = 20
 
 
 def questions_for_view(view: ViewFacts, spec: dict, rng: np.random.Generator, key: str) -> list[QA]:
-    """Up to ``spec["per_view"]`` distinct questions about one view."""
+    """Up to ``spec["per_view"]`` distinct questions about one view.
+
+    Family and step count are drawn first and kept through that question's
+    attempts, so hard draws (five steps, few anchors) are retried rather than
+    silently replaced by easy ones; that keeps the recipe's mix.
+    """
     out: list[QA] = []
     seen: set[str] = set()
     if not view.askable():
         return out
-    for _ in range(spec["per_view"]):
+    budget = 2 * spec["per_view"]  # draws, so a view with little to ask still ends
+    while len(out) < spec["per_view"] and budget > 0:
+        budget -= 1
+        family = _weighted(spec["families"], rng)
+        steps = int(_weighted(spec["steps"], rng))
         for _attempt in range(spec["attempts_per_question"]):
-            family = _weighted(spec["families"], rng)
-            qa = FAMILIES[family](view, spec, rng)
+            qa = FAMILIES[family](view, spec, steps, rng)
             if qa is not None and qa["question"] not in seen:
                 seen.add(qa["question"])
                 out.append({"qa_id": f"{key}#{len(out)}", **qa})
@@ -83,9 +91,8 @@ def format_points(points: list[list[float]]) -> str:
 # --- families ----------------------------------------------------------------------------------
 
 
-def _location(view: ViewFacts, spec: dict, rng: np.random.Generator) -> QA | None:
+def _location(view: ViewFacts, spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
     """Point to the one object a description picks (1 to 5 steps)."""
-    steps = int(_weighted(spec["steps"], rng))
     targets = view.askable()
     target = targets[int(rng.integers(len(targets)))]
     if steps == 1:
@@ -109,8 +116,8 @@ def _location(view: ViewFacts, spec: dict, rng: np.random.Generator) -> QA | Non
     return _point_qa("location", prompt, points, values[-1], program, values, view, rng, ref=text)
 
 
-def _choice(view: ViewFacts, spec: dict, rng: np.random.Generator) -> QA | None:
-    """Yes/no about a relation, or which of two objects a comparative picks."""
+def _choice(view: ViewFacts, spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
+    """Yes/no about a relation, or which of two objects a comparative picks (always 2 steps)."""
     objs = view.askable()
     if len(objs) < 2:
         return None
@@ -147,7 +154,7 @@ def _choice(view: ViewFacts, spec: dict, rng: np.random.Generator) -> QA | None:
     return _choice_qa("pick", prompt, letter, values[-1], program, values, predicate)
 
 
-FAMILIES: dict[str, Callable[[ViewFacts, dict, np.random.Generator], QA | None]] = {
+FAMILIES: dict[str, Callable[[ViewFacts, dict, int, np.random.Generator], QA | None]] = {
     "location": _location,
     "choice": _choice,
 }

@@ -85,7 +85,7 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
     if length < BETWEEN_MIN_GAP_M:
         return None
     t = float((p - q) @ seg) / length**2
-    d = abs(float(np.cross(seg, p - q))) / length
+    d = abs(float(seg[0] * (p - q)[1] - seg[1] * (p - q)[0])) / length
     half_width = 0.5 * max(b.footprint_m.min(), c.footprint_m.min())
     if BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= half_width:
         return True

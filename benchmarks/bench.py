@@ -1,0 +1,99 @@
+"""End-to-end throughput against bare MuJoCo rendering of the same views.
+
+    python benchmarks/bench.py [--scenes 20] [--recipe tabletop] [--workers 1]
+
+1. End to end: the real shard code (compose, settle, frame, render, relations,
+   questions, MCAP write) in this process, one core, into a temporary folder.
+2. Bare render: for the same scenes, only what any MuJoCo renderer must do for a
+   new scene (compile the model, make a Renderer, draw RGB, depth and
+   segmentation of every view) at the same resolution and quality settings.
+3. Optionally the whole run again with K worker processes (scaling).
+The ratio of (1) to (2) says how close the pipeline runs to the renderer's limit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import refspatial  # noqa: E402,F401
+from refspatial.assets import load_catalogue  # noqa: E402
+from refspatial.compose import SceneRejected  # noqa: E402
+from refspatial.pipeline import STAGES, build_scene  # noqa: E402
+from refspatial.recipe import load_recipe  # noqa: E402
+from refspatial.render import render_views  # noqa: E402
+from refspatial.seeding import scene_seed  # noqa: E402
+from refspatial.shards import ShardJob, generate, run_shard  # noqa: E402
+
+
+def end_to_end(recipe, catalogue, n: int, out: Path) -> tuple[float, dict]:
+    job = ShardJob(0, 0, n, out, recipe, catalogue, base_seed=0)
+    (out / "shards").mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    summary = run_shard(job)
+    return time.perf_counter() - start, summary
+
+
+def bare_render(recipe, catalogue, n: int) -> tuple[float, int]:
+    scenes = []
+    for i in range(n):
+        try:
+            scenes.append(build_scene(recipe, catalogue, scene_seed(0, i)))
+        except SceneRejected:
+            continue
+    start = time.perf_counter()
+    views = sum(len(render_views(s, catalogue.materials)) for s in scenes)
+    return time.perf_counter() - start, views
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scenes", type=int, default=20)
+    parser.add_argument("--recipe", default="tabletop")
+    parser.add_argument("--workers", type=int, default=0, help="also time a run with this many processes")
+    args = parser.parse_args()
+    recipe, catalogue = load_recipe(args.recipe), load_catalogue()
+    cam = recipe["camera"]
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"python {platform.python_version()}, MUJOCO_GL={os.environ['MUJOCO_GL']}")
+    print(f"recipe {recipe.name}: {cam['width']}x{cam['height']}, {cam['views']} view(s)/scene, "
+          f"{recipe['questions']['per_view']} QA/view wanted, {args.scenes} scenes")
+    with tempfile.TemporaryDirectory() as tmp:
+        e2e_s, summary = end_to_end(recipe, catalogue, args.scenes, Path(tmp))
+        size = (Path(tmp) / summary["file"]).stat().st_size
+    records, qa = summary["records"], summary["qa"]
+    print(f"\nend to end (1 process): {e2e_s:.2f} s, {records} records, {qa} QA, "
+          f"{len(summary['skipped'])} scenes rejected")
+    print(f"  records/s {records / e2e_s:.2f}   QA/s {qa / e2e_s:.1f}   QA/record {qa / max(records, 1):.1f}   "
+          f"shard bytes/record {size / max(records, 1) / 1e6:.2f} MB")
+    stages = summary["seconds"]
+    stages["write+other"] = e2e_s - sum(stages.values())
+    for stage in (*STAGES, "write+other"):
+        s = stages.get(stage, 0.0)
+        print(f"  {stage:<12} {s:7.2f} s  {100 * s / e2e_s:5.1f} %  {1000 * s / max(records, 1):7.1f} ms/record")
+    bare_s, views = bare_render(recipe, catalogue, args.scenes)
+    print(f"\nbare MuJoCo render of the same {views} views (compile + Renderer + RGB/depth/seg): {bare_s:.2f} s, "
+          f"{views / bare_s:.2f} views/s")
+    print(f"ratio end-to-end / bare render: {(records / e2e_s) / (views / bare_s):.2f}")
+    if args.workers > 1:
+        with tempfile.TemporaryDirectory() as tmp:
+            start = time.perf_counter()
+            m = generate(Path(tmp), recipe, catalogue, args.scenes, 0, args.workers, scenes_per_shard=max(1, args.scenes // (2 * args.workers)))
+            wall = time.perf_counter() - start
+        print(f"\n{args.workers} worker processes: {wall:.2f} s, {m['records'] / wall:.2f} records/s, "
+              f"{m['qa'] / wall:.1f} QA/s (speed-up {(m['records'] / wall) / (records / e2e_s):.2f}x)")
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"\npeak RSS of this process: {peak:.0f} MB")
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,42 @@
+import numpy as np
+import pytest
+
+from refspatial.compose import SceneRejected, boxes_overlap, compose, footprint_corners
+
+
+def test_same_seed_same_scene(tiny, catalogue):
+    a, b = compose(tiny, catalogue, 11), compose(tiny, catalogue, 11)
+    assert [o.pose for o in a.objects] == [o.pose for o in b.objects]
+    assert all(np.array_equal(x.asset.visual.vertices_m, y.asset.visual.vertices_m) for x, y in zip(a.objects, b.objects))
+    c = compose(tiny, catalogue, 12)
+    assert [o.pose for o in a.objects] != [o.pose for o in c.objects]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_objects_are_on_the_table_without_overlap(tiny, catalogue, seed):
+    try:
+        scene = compose(tiny, catalogue, seed)
+    except SceneRejected as exc:
+        assert exc.reason == "crowded"
+        return
+    lo, hi = tiny["objects"]["count"]
+    assert lo <= len(scene.objects) <= hi
+    assert [o.object_id for o in scene.objects] == list(range(len(scene.objects)))
+    quads = []
+    for o in scene.objects:
+        x, y, z = o.pose.pos_world_m
+        w, _, _, qz = o.pose.quat_wxyz
+        quad = footprint_corners(o.asset, x, y, 2 * np.arctan2(qz, w))
+        assert np.all(np.abs(quad) <= np.array(scene.table.size_m) / 2)
+        assert z == pytest.approx(scene.table.top_z_m + tiny["objects"]["drop_height_m"])
+        assert not any(boxes_overlap(quad, q) for q in quads)
+        quads.append(quad)
+
+
+def test_overlap_test_on_known_boxes():
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    assert boxes_overlap(square, square + 0.5)
+    assert not boxes_overlap(square, square + [1.01, 0])
+    diamond = np.array([[1.6, 0.5], [2.1, 0.0], [2.6, 0.5], [2.1, 1.0]])
+    assert not boxes_overlap(square, diamond)
+    assert boxes_overlap(square, diamond - [0.7, 0])

@@ -1,0 +1,43 @@
+import dataclasses
+
+import numpy as np
+import pytest
+
+from refspatial.compose import SceneRejected, compose
+from refspatial.physics import settle
+from refspatial.scene import Pose, quat_to_matrix
+
+
+def _first_stable(tiny, catalogue, seeds=range(20)):
+    for seed in seeds:
+        try:
+            scene = compose(tiny, catalogue, seed)
+            return scene, settle(scene, catalogue.materials, tiny)
+        except SceneRejected:
+            continue
+    raise AssertionError("no stable scene in 20 seeds")
+
+
+def test_settled_objects_rest_upright_on_the_table(tiny, catalogue):
+    before, after = _first_stable(tiny, catalogue)
+    for old, new in zip(before.objects, after.objects):
+        lowest_z = (new.asset.visual.vertices_m @ quat_to_matrix(new.pose.quat_wxyz).T)[:, 2].min() + new.pose.pos_world_m[2]
+        assert lowest_z == pytest.approx(before.table.top_z_m, abs=0.006)  # resting, not floating or sunk
+        assert quat_to_matrix(new.pose.quat_wxyz)[2, 2] > np.cos(np.radians(tiny["physics"]["max_tilt_deg"]))
+        assert np.hypot(*np.subtract(new.pose.pos_world_m[:2], old.pose.pos_world_m[:2])) < 0.04
+
+
+def test_settling_is_deterministic(tiny, catalogue):
+    scene, a = _first_stable(tiny, catalogue)
+    b = settle(scene, catalogue.materials, tiny)
+    assert [o.pose for o in a.objects] == [o.pose for o in b.objects]
+
+
+def test_object_beyond_the_edge_falls_and_is_rejected(tiny, catalogue):
+    scene, _ = _first_stable(tiny, catalogue)
+    edge_x = scene.table.size_m[0] / 2 + 0.2
+    moved = dataclasses.replace(scene.objects[0], pose=Pose((edge_x, 0.0, scene.table.top_z_m + 0.002), (1, 0, 0, 0)))
+    bad = dataclasses.replace(scene, objects=(moved, *scene.objects[1:]))
+    with pytest.raises(SceneRejected) as err:
+        settle(bad, catalogue.materials, tiny)
+    assert err.value.reason == "fell_off_table"

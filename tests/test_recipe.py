@@ -1,0 +1,65 @@
+from pathlib import Path
+
+import pytest
+
+from refspatial.recipe import RecipeError, available, load_recipe
+
+
+def write(tmp_path: Path, text: str, name: str = "r.yaml") -> str:
+    p = tmp_path / name
+    p.write_text(text)
+    return str(p)
+
+
+def test_default_recipe_loads_and_is_listed():
+    r = load_recipe("tabletop")
+    assert "tabletop" in available()
+    assert r.name == "tabletop" and len(r.hash) == 64
+    assert r["camera"]["pitch_deg"] == [-60, -30]
+
+
+def test_extends_merges_sections_key_by_key(tiny):
+    parent = load_recipe("tabletop")
+    assert tiny["camera"]["width"] == 192
+    assert tiny["camera"]["pitch_deg"] == parent["camera"]["pitch_deg"]
+    assert tiny.hash != parent.hash
+
+
+def test_hash_ignores_formatting(tmp_path):
+    a = load_recipe(write(tmp_path, "extends: tabletop\nname: x\n", "a.yaml"))
+    b = load_recipe(write(tmp_path, "# comment\nname:   x\nextends: tabletop\n", "b.yaml"))
+    assert a.hash == b.hash
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("extends: tabletop\nname: x\ncamera: {pitch_deg: [-10, -50]}\n", "camera.pitch_deg"),
+        ("extends: tabletop\nname: x\nobjects: {count: [3, 2]}\n", "objects.count"),
+        ("extends: tabletop\nname: x\ncamera: {zoom: 2}\n", "camera.zoom: unknown key"),
+        ("extends: tabletop\nname: x\nlighting: {}\n", "unknown section 'lighting'"),
+        ("extends: tabletop\nname: x\nquestions: {families: {essay: 1}}\n", "unknown question family"),
+        ("extends: tabletop\nname: x\ncamera: {width: 0}\n", "camera.width"),
+        ("name: x\n", "missing section"),
+        ("extends: tabletop\nname: [x\n", "not valid YAML"),
+        ("- just\n- a list\n", "expected a mapping"),
+        ("extends: nowhere\nname: x\n", "unknown recipe 'nowhere'"),
+    ],
+)
+def test_bad_recipes_name_the_key_to_fix(tmp_path, text, message):
+    with pytest.raises(RecipeError) as err:
+        load_recipe(write(tmp_path, text))
+    assert message in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_extends_cycle_is_reported(tmp_path):
+    write(tmp_path, f"extends: {tmp_path / 'b.yaml'}\nname: a\n", "a.yaml")
+    write(tmp_path, f"extends: {tmp_path / 'a.yaml'}\nname: b\n", "b.yaml")
+    with pytest.raises(RecipeError, match="cycle"):
+        load_recipe(str(tmp_path / "a.yaml"))
+
+
+def test_unknown_recipe_lists_known_ones():
+    with pytest.raises(RecipeError, match="tabletop"):
+        load_recipe("kitchen_of_dreams")

@@ -1,0 +1,83 @@
+"""Camera framing and the renderer's arrays: shapes, units, and agreement with geometry."""
+
+import numpy as np
+import pytest
+
+from refspatial.camera import _object_corners, project
+from refspatial.compose import SceneRejected
+from refspatial.pipeline import build_scene
+from refspatial.render import render_views
+
+
+@pytest.fixture(scope="module")
+def rendered(tiny, catalogue):
+    for seed in range(20):
+        try:
+            scene = build_scene(tiny, catalogue, seed)
+        except SceneRejected:
+            continue
+        return scene, render_views(scene, catalogue.materials)[0]
+    raise AssertionError("no usable scene in 20 seeds")
+
+
+def test_camera_follows_the_recipe(rendered, tiny):
+    scene, view = rendered
+    cam, spec = view.camera, tiny["camera"]
+    T = cam.T_world_cam()
+    height = T[2, 3] - scene.table.top_z_m
+    lo, hi = spec["height_above_table_m"]
+    assert lo - 1e-6 <= height <= hi + 1e-6
+    pitch = np.degrees(np.arcsin(T[2, 2]))  # OpenCV +z is the viewing direction
+    assert spec["pitch_deg"][0] - 1e-6 <= pitch <= spec["pitch_deg"][1] + 1e-6
+    uv, z = project(_object_corners(scene), cam)
+    m = spec["margin_px"]
+    assert np.all(z > 0) and np.all(uv >= m - 1e-6)
+    assert np.all(uv <= [cam.width - m + 1e-6, cam.height - m + 1e-6])
+
+
+def test_arrays_have_documented_types(rendered, tiny):
+    _, view = rendered
+    h, w = tiny["camera"]["height"], tiny["camera"]["width"]
+    assert view.rgb.shape == (h, w, 3) and view.rgb.dtype == np.uint8
+    assert view.depth_m.shape == (h, w) and view.depth_m.dtype == np.float32
+    assert view.seg.shape == (h, w) and view.seg.dtype == np.int32
+    assert view.rgb.std() > 5  # a real picture, not a blank buffer
+
+
+def test_segmentation_ids_are_the_scene_objects(rendered):
+    scene, view = rendered
+    ids = set(np.unique(view.seg)) - {-1}
+    assert ids and ids <= {o.object_id for o in scene.objects}
+
+
+def test_depth_backprojects_onto_the_object_it_labels(rendered):
+    """Pixels labelled object k, lifted to 3-D with depth and K, land inside k's world box."""
+    scene, view = rendered
+    K, T = view.K, view.T_world_cam
+    rows, cols = np.nonzero(view.seg >= 0)
+    z = view.depth_m[rows, cols]
+    rays = np.linalg.inv(K) @ np.stack([cols + 0.5, rows + 0.5, np.ones_like(z)])
+    world = (T[:3, :3] @ (rays * z) + T[:3, 3:4]).T
+    for obj in scene.objects:
+        sel = view.seg[rows, cols] == obj.object_id
+        if not sel.any():
+            continue
+        verts = obj.asset.visual.vertices_m @ obj.pose.matrix()[:3, :3].T + obj.pose.pos_world_m
+        lo, hi = verts.min(0) - 0.01, verts.max(0) + 0.01
+        inside = np.all((world[sel] >= lo) & (world[sel] <= hi), axis=1)
+        assert inside.mean() > 0.97, f"object {obj.object_id}: {inside.mean():.2%} of its pixels inside its box"
+
+
+def test_table_depth_matches_ray_plane_intersection(rendered):
+    scene, view = rendered
+    K, T = view.K, view.T_world_cam
+    rows, cols = np.nonzero(view.seg == -1)
+    rays_cam = np.linalg.inv(K) @ np.stack([cols + 0.5, rows + 0.5, np.ones(len(rows))])
+    rays_world = T[:3, :3] @ rays_cam
+    # depth along the optical axis at which each ray meets the table top plane
+    t = (scene.table.top_z_m - T[2, 3]) / rays_world[2]
+    hit = T[:3, 3:4] + rays_world * t
+    on_table = (t > 0) & np.all(np.abs(hit[:2].T) < np.array(scene.table.size_m) / 2 - 0.05, axis=1)
+    assert on_table.sum() > 100
+    err = np.abs(view.depth_m[rows[on_table], cols[on_table]] - t[on_table])
+    assert np.median(err) < 0.002
