@@ -39,7 +39,23 @@ def settle(scene: Scene, materials: dict[str, MaterialSpec], recipe: Recipe) -> 
             raise SceneRejected("unstable_simulation", "non-finite state")
     settled = tuple(_settled_object(model, data, obj) for obj in scene.objects)
     _check(scene, settled, model, data, spec_p)
-    return dataclasses.replace(scene, objects=settled)
+    return dataclasses.replace(scene, objects=settled, contacts=contact_pairs(model, data, len(scene.objects)))
+
+
+def contact_pairs(model, data, n_objects: int) -> tuple[tuple[int, int], ...]:
+    """Object pairs touching in the settled state (physics' own contacts), -1 standing for the table."""
+    from .mjcf import object_of_geom
+
+    owner = object_of_geom(model, n_objects)
+    table = model.geom("table").id
+    pairs = set()
+    n = data.ncon
+    contacts = data.contact
+    for g1, g2, dist in zip(contacts.geom1[:n], contacts.geom2[:n], contacts.dist[:n]):
+        a, b = (int(owner[g]) if g != table else -1 for g in (g1, g2))
+        if a != b and max(a, b) >= 0 and dist < 0.002:
+            pairs.add((min(a, b), max(a, b)))
+    return tuple(sorted(pairs))
 
 
 def _settled_object(model, data, obj: PlacedObject) -> PlacedObject:

@@ -21,7 +21,7 @@ from .physics import settle
 from .questions import questions_for_view
 from .recipe import Recipe
 from .records import Record
-from .relations import ObjectFacts, ViewFacts, true_relations, view_facts
+from .relations import ObjectFacts, ViewFacts, computed_relations, view_facts
 from .render import View, render_views
 from .scene import PlacedObject, Scene, quat_to_matrix
 from .seeding import stage_rng
@@ -77,7 +77,7 @@ def _record(recipe: Recipe, scene: Scene, index: int, view: View, seconds: dict[
     key = f"{scene.scene_id}/{view.camera.name}"
     with _timed(seconds, "relations"):
         facts = view_facts(scene, view)
-        relations = true_relations(facts)
+        relations = computed_relations(facts)
     with _timed(seconds, "questions"):
         rng = stage_rng(recipe.hash, scene.seed, f"questions/{view.camera.name}")
         qa = questions_for_view(facts, recipe["questions"], rng, key)

@@ -26,6 +26,16 @@ class MeshData:
         return np.stack([self.vertices_m.min(axis=0), self.vertices_m.max(axis=0)])
 
 
+@dataclass(frozen=True)
+class Cavity:
+    """The open space of a container, in the object frame (for inside/outside and filling)."""
+
+    shape: str  # "cylinder" (half_extents_m[0] is the radius) or "box"
+    half_extents_m: tuple[float, float]  # x, y
+    floor_z_m: float  # inner floor height
+    rim_z_m: float  # top of the opening
+
+
 @dataclass(frozen=True, eq=False)
 class Asset:
     """One concrete object: geometry, look and semantics, ready to place."""
@@ -41,6 +51,8 @@ class Asset:
     front_side: str  # name of the semantic front, e.g. "handle"
     params: dict[str, float] = field(default_factory=dict)  # sampled shape parameters
     licence: str = "project-own (procedural)"
+    cavity: Cavity | None = None  # containers only
+    support: bool = False  # other objects may be stacked on its top face
 
     @property
     def size_m(self) -> np.ndarray:
@@ -116,6 +128,8 @@ class Scene:
     objects: tuple[PlacedObject, ...]
     cameras: tuple[Camera, ...]
     light: Light
+    # Pairs of object ids (smaller first) in contact after settling; -1 is the table.
+    contacts: tuple[tuple[int, int], ...] = ()
 
     @property
     def scene_id(self) -> str:

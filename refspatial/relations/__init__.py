@@ -1,4 +1,4 @@
-"""The relation engine: per-view facts and the predicate registry.
+"""The relation engine: per-view facts and the registry of all 31 predicates.
 
 Importing this package registers every predicate module.
 """
@@ -7,30 +7,54 @@ from __future__ import annotations
 
 from itertools import combinations, permutations
 
-from . import directional  # noqa: F401  (registers predicates)
-from .facts import ObjectFacts, ViewFacts, view_facts
-from .registry import PREDICATES, Predicate, Verdict, compare, predicate
+from . import contact, directional, free_space, metric, placement, vertical  # noqa: F401  (registers predicates)
+from .facts import TABLE, ObjectFacts, ViewFacts, view_facts
+from .registry import PREDICATES, Predicate, Quantity, Verdict, compare, predicate
 
 __all__ = [
-    "PREDICATES", "ObjectFacts", "Predicate", "Verdict", "ViewFacts", "compare", "predicate",
-    "true_relations", "view_facts",
+    "PREDICATES", "TABLE", "ObjectFacts", "Predicate", "Quantity", "Verdict", "ViewFacts", "compare",
+    "predicate", "computed_relations", "view_facts",
 ]
 
 
-def true_relations(view: ViewFacts) -> list[dict]:
-    """Every decided-true relation among the askable objects of a view.
+def _groups(pred: Predicate, objs: list[ObjectFacts]):
+    if pred.arity == 1:
+        return ((a,) for a in objs)
+    if pred.arity == 2:
+        return combinations(objs, 2) if pred.symmetric else permutations(objs, 2)
+    return ((a, b, c) for a in objs for b, c in combinations(objs, 2))
 
-    Stored with each record so that statistics and audits can count predicates
-    without re-running the engine. ``between`` is listed once per unordered anchor pair.
+
+def computed_relations(view: ViewFacts) -> list[dict]:
+    """What the engine establishes about a view, for statistics and audits.
+
+    Relations: every decided-true tuple (symmetric ones once per unordered pair,
+    ``between`` once per unordered anchor pair). Measures: the value and unit for
+    every object or pair it applies to. Free space: each anchor and direction
+    with a solution, its point and free area. Only askable objects take part.
     """
     objs = view.askable()
     out: list[dict] = []
     for name, pred in sorted(PREDICATES.items()):
-        if pred.arity == 2:
-            groups = permutations(objs, 2)
-        else:
-            groups = ((a, b, c) for a in objs for b, c in combinations(objs, 2))
-        for group in groups:
-            if pred(view, *group) is True:
-                out.append({"predicate": name, "objects": [o.object_id for o in group]})
+        if pred.kind == "region":
+            out.extend(_free_space_entries(view, objs))
+            continue
+        for group in _groups(pred, objs):
+            value = pred(view, *group)
+            ids = [o.object_id for o in group]
+            if pred.kind == "relation" and value is True:
+                out.append({"predicate": name, "objects": ids})
+            elif pred.kind == "measure" and value is not None:
+                out.append({"predicate": name, "objects": ids, "value": round(value.value, 4), "unit": value.unit})
+    return out
+
+
+def _free_space_entries(view: ViewFacts, objs: list[ObjectFacts]) -> list[dict]:
+    out = []
+    for a in objs:
+        for direction in free_space.DIRECTIONS:
+            answer = PREDICATES["free_space"](view, a, direction=direction)
+            if answer is not None:
+                out.append({"predicate": "free_space", "objects": [a.object_id], "direction": direction,
+                            "point": list(answer.point), "area_m2": round(answer.area_m2, 4)})
     return out

@@ -92,3 +92,25 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
     if t < 0 or t > 1 or d > half_width + BETWEEN_OUTSIDE_M:
         return False
     return None
+
+
+IMAGE_ROW_MARGIN = 0.04  # share of the image height between mask centroids
+
+
+@predicate("higher_in_image", family="image_above_below", arity=2, frame="image", inverse="lower_in_image")
+def higher_in_image(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
+    """A's visible-mask centroid lies higher in the image (smaller row) than B's.
+
+    Margin: 4 % of the image height. Undecided when either object is unseen.
+    """
+    if a.centroid_px is None or b.centroid_px is None:
+        return None
+    return compare(b.centroid_px[1] - a.centroid_px[1], IMAGE_ROW_MARGIN * v.height)
+
+
+@predicate("lower_in_image", family="image_above_below", arity=2, frame="image", inverse="higher_in_image")
+def lower_in_image(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
+    """A's visible-mask centroid lies lower in the image (larger row) than B's; margin as higher_in_image."""
+    if a.centroid_px is None or b.centroid_px is None:
+        return None
+    return compare(a.centroid_px[1] - b.centroid_px[1], IMAGE_ROW_MARGIN * v.height)

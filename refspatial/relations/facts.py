@@ -3,19 +3,29 @@
 "Viewer frame": the camera's right and forward axes projected onto the ground
 plane (gravity is world -z), so "left of" means the same thing whether the
 camera looks steeply down or almost level.
+
+Visibility compares an object's visible pixels (segmentation) with its full
+silhouette (its mesh projected without occluders); objects mostly hidden behind
+others are not asked about.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from ..render import View
-from ..scene import Scene
+from ..scene import Cavity, PlacedObject, Scene
+from .geometry import overlap_share, project
 
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
 MIN_VISIBLE_PX = 20
+MIN_VISIBLE_SHARE = 0.4  # an object less visible than this (of its silhouette) is too occluded to ask about
+SUPPORT_GAP_M = 0.05  # RefSpatial: a platform top within 5 cm of an object's bottom...
+SUPPORT_COVER = 0.7  # ...covering >= 70 % of its footprint supports it
+TABLE = -1  # support id of the table
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,6 +40,16 @@ class ObjectFacts:
     depth_m: float  # median camera depth of the visible surface (inf if unseen)
     visible_px: int
     status: str  # "visible" (may be asked about), "marginal" (seen, too little to ask) or "hidden"
+    footprint_world: np.ndarray | None = None  # (4, 2) oriented footprint corners on the ground, ccw
+    front_world: np.ndarray | None = None  # (3,) unit vector of the semantic front
+    front_side: str = "front"
+    volume_m3: float = 0.0
+    centroid_px: tuple[float, float] | None = None  # (column, row) of the visible mask's centroid
+    visible_share: float = 1.0  # visible pixels / silhouette pixels
+    support: int | None = None  # object id it stands on, TABLE, or None (floating / unknown)
+    cavity: Cavity | None = None
+    is_support: bool = False  # its top face may hold other objects (plate, book, box...)
+    pose_world: np.ndarray | None = None  # 4x4 world <- object
 
     @property
     def center_world_m(self) -> np.ndarray:
@@ -40,8 +60,15 @@ class ObjectFacts:
         """(x, y) extents of the world box on the ground."""
         return self.aabb_world_m[1, :2] - self.aabb_world_m[0, :2]
 
+    @property
+    def height_m(self) -> float:
+        return float(self.aabb_world_m[1, 2] - self.aabb_world_m[0, 2])
+
     def extent_along(self, axis_world: np.ndarray) -> float:
-        """Width of the world box projected on a horizontal unit axis."""
+        """Width of the object projected on a horizontal unit axis."""
+        if self.footprint_world is not None:
+            coords = self.footprint_world @ axis_world[:2]
+            return float(coords.max() - coords.min())
         return float(np.abs(self.footprint_m * axis_world[:2]).sum())
 
 
@@ -52,6 +79,11 @@ class ViewFacts:
     forward_axis: np.ndarray  # (3,) world, horizontal unit vector, away from the viewer
     seg: np.ndarray  # int32 (H, W)
     depth_m: np.ndarray  # float32 (H, W)
+    K: np.ndarray | None = None  # (3, 3)
+    T_world_cam: np.ndarray | None = None  # (4, 4) OpenCV camera
+    table_size_m: tuple[float, float] = (0.0, 0.0)  # table extents along world x, y (centred at the origin)
+    table_top_z_m: float = 0.0
+    contacts: frozenset[tuple[int, int]] = frozenset()  # object pairs touching, smaller id first, -1 = table
 
     @property
     def width(self) -> int:
@@ -67,23 +99,78 @@ class ViewFacts:
 
 def view_facts(scene: Scene, view: View) -> ViewFacts:
     R = view.T_world_cam[:3, :3]
-    right = _horizontal(R[:, 0])
-    forward = _horizontal(R[:, 2])
+    right, forward = _horizontal(R[:, 0]), _horizontal(R[:, 2])
     counts = np.bincount(view.seg.ravel() + 1, minlength=len(scene.objects) + 1)[1:]
     min_px = max(MIN_VISIBLE_PX, VISIBLE_SHARE_OF_IMAGE * view.seg.size)
-    objects = []
-    for obj in scene.objects:
-        verts = obj.asset.visual.vertices_m @ obj.pose.matrix()[:3, :3].T + obj.pose.pos_world_m
-        aabb = np.stack([verts.min(0), verts.max(0)])
-        centre = aabb.mean(0)
-        px = int(counts[obj.object_id])
-        depth = float(np.median(view.depth_m[view.seg == obj.object_id])) if px else float("inf")
-        status = "visible" if px >= min_px else ("marginal" if px else "hidden")
-        objects.append(
-            ObjectFacts(obj.object_id, obj.asset.category, obj.asset.name, obj.asset.color, aabb,
-                        float(centre @ right), float(centre @ forward), depth, px, status)
-        )
-    return ViewFacts(tuple(objects), right, forward, view.seg, view.depth_m)
+    objects = [_object_facts(o, view, right, forward, int(counts[o.object_id]), min_px) for o in scene.objects]
+    objects = _with_supports(objects, scene.table.top_z_m, np.array(scene.table.size_m))
+    return ViewFacts(tuple(objects), right, forward, view.seg, view.depth_m, view.K, view.T_world_cam,
+                     tuple(scene.table.size_m), scene.table.top_z_m, frozenset(scene.contacts))
+
+
+def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px: float) -> ObjectFacts:
+    T = obj.pose.matrix()
+    asset = obj.asset
+    verts = asset.visual.vertices_m @ T[:3, :3].T + T[:3, 3]
+    aabb = np.stack([verts.min(0), verts.max(0)])
+    centre = aabb.mean(0)
+    mask = view.seg == obj.object_id
+    depth = float(np.median(view.depth_m[mask])) if px else float("inf")
+    share = min(1.0, px / max(_silhouette_px(verts, asset.visual.faces, view), 1))
+    status = "visible" if px >= min_px and share >= MIN_VISIBLE_SHARE else ("marginal" if px else "hidden")
+    rows, cols = np.nonzero(mask)
+    return ObjectFacts(
+        obj.object_id, asset.category, asset.name, asset.color, aabb, float(centre @ right),
+        float(centre @ forward), depth, px, status,
+        footprint_world=_footprint(asset, T), front_world=T[:3, :3] @ np.asarray(asset.front_local),
+        front_side=asset.front_side, volume_m3=mesh_volume(asset.visual.vertices_m, asset.visual.faces),
+        centroid_px=(float(cols.mean() + 0.5), float(rows.mean() + 0.5)) if px else None,
+        visible_share=share, cavity=asset.cavity, is_support=asset.support, pose_world=T,
+    )
+
+
+def _footprint(asset, T: np.ndarray) -> np.ndarray:
+    """Oriented footprint corners: the object's box in its own frame, turned by its pose."""
+    (x0, y0, _), (x1, y1, _) = asset.visual.bounds_m
+    local = np.array([[x0, y0, 0], [x1, y0, 0], [x1, y1, 0], [x0, y1, 0]])
+    return (local @ T[:3, :3].T + T[:3, 3])[:, :2]
+
+
+def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Enclosed volume of a closed, outward-wound mesh (divergence theorem)."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    return float(abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0)
+
+
+def _silhouette_px(verts_world: np.ndarray, faces: np.ndarray, view: View) -> int:
+    """Pixels the object would cover with nothing in front of it (clipped to the image)."""
+    uv, z = project(verts_world, view.K, view.T_world_cam)
+    if np.any(z <= 0.01):
+        return int(view.seg.size)  # crosses the camera plane: cannot be occluded meaningfully
+    canvas = np.zeros(view.seg.shape, dtype=np.uint8)
+    tris = np.round(uv[faces] * 4).astype(np.int32)  # 2 fractional bits for sub-pixel accuracy
+    cv2.fillPoly(canvas, list(tris), 1, lineType=cv2.LINE_8, shift=2)
+    return int(canvas.sum())
+
+
+def _with_supports(objects: list[ObjectFacts], table_z: float, table_size: np.ndarray) -> list[ObjectFacts]:
+    """Attach what each object stands on, by RefSpatial's rule (top within 5 cm, covers >= 70 %)."""
+    from dataclasses import replace
+
+    out = []
+    for o in objects:
+        bottom = o.aabb_world_m[0, 2]
+        support = None
+        if abs(bottom - table_z) <= SUPPORT_GAP_M and np.all(np.abs(o.center_world_m[:2]) <= table_size / 2):
+            support = TABLE
+        candidates = [p for p in objects if p is not o and abs(bottom - p.aabb_world_m[1, 2]) <= SUPPORT_GAP_M
+                      and p.aabb_world_m[1, 2] > table_z + 0.005]
+        for p in sorted(candidates, key=lambda p: -p.aabb_world_m[1, 2]):
+            if overlap_share(o.footprint_world, p.footprint_world) >= SUPPORT_COVER:
+                support = p.object_id
+                break
+        out.append(replace(o, support=support))
+    return out
 
 
 def _horizontal(v: np.ndarray) -> np.ndarray:

@@ -1,19 +1,28 @@
 """One registry for every spatial predicate.
 
-A predicate is a small function of view facts and object facts returning True,
-False, or None when the case is too close to call (the *undecided band*); no
-question may rest on an undecided value. Its docstring states the definition,
-frame and thresholds.
+Three kinds share the registry:
+- "relation": returns True, False, or None when the case is too close to call
+  (the *undecided band*); no question may rest on an undecided value.
+- "measure": returns a Quantity (a number with its unit, rounded only in text),
+  or None when it cannot be measured reliably.
+- "region": the free-space solver, returning a FreeSpace answer or None.
+Each function's docstring states its definition, frame and thresholds.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Optional
+from typing import Any, Callable, Optional
 
 from .facts import ObjectFacts, ViewFacts
 
 Verdict = Optional[bool]
+
+
+@dataclass(frozen=True)
+class Quantity:
+    value: float  # in ``unit``, unrounded
+    unit: str  # "m", "deg", "m3"
 
 
 @dataclass(frozen=True)
@@ -23,24 +32,27 @@ class Predicate:
     arity: int  # objects it relates, the subject first
     frame: str  # "viewer", "world", "image", "camera" or "object"
     inverse: str | None  # predicate that holds with the first two objects swapped
-    fn: Callable[..., Verdict]
+    fn: Callable[..., Any]
+    kind: str = "relation"  # "relation", "measure" or "region"
+    symmetric: bool = False  # p(a, b) == p(b, a): listed once per unordered pair
 
-    def __call__(self, view: ViewFacts, *objects: ObjectFacts) -> Verdict:
+    def __call__(self, view: ViewFacts, *objects: ObjectFacts, **options: Any) -> Any:
         if len(objects) != self.arity:
             raise TypeError(f"{self.name} relates {self.arity} objects, got {len(objects)}")
         if len({o.object_id for o in objects}) != len(objects):
             return None  # an object is never related to itself
-        return self.fn(view, *objects)
+        return self.fn(view, *objects, **options)
 
 
 PREDICATES: dict[str, Predicate] = {}
 
 
-def predicate(name: str, family: str, arity: int, frame: str, inverse: str | None = None):
-    def register(fn: Callable[..., Verdict]) -> Callable[..., Verdict]:
+def predicate(name: str, family: str, arity: int, frame: str, inverse: str | None = None,
+              kind: str = "relation", symmetric: bool = False):
+    def register(fn: Callable[..., Any]) -> Callable[..., Any]:
         if name in PREDICATES:
             raise ValueError(f"predicate {name!r} registered twice")
-        PREDICATES[name] = Predicate(name, family, arity, frame, inverse, fn)
+        PREDICATES[name] = Predicate(name, family, arity, frame, inverse, fn, kind, symmetric)
         return fn
 
     return register

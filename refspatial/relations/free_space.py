@@ -1,0 +1,262 @@
+"""Free space: a vacant, visible point on a support surface that meets every constraint.
+
+The thresholds are the ones published with RefSpatial:
+- support: a platform top within 5 cm of the object's bottom covering >= 70 % of
+  its footprint (``facts._with_supports``); ``between`` needs both anchors on the same support;
+- obstacles: other objects on that platform (the platform itself is not one);
+- regions: left/right/front/behind = a 90 degree sector centred on the anchor, pointing along
+  the viewer-frame direction, reaching max(footprint diagonal, 0.20 m) beyond the anchor's own
+  extent in that direction (measured from the centre, a 0.20 m sector could never hold the
+  0.036 m^2 below); on_top = the anchor's top face shrunk to 80 %; between = the planar region
+  enclosed by both anchors' footprints (their convex hull);
+- free area (1 cm cells of the region on the platform, clear of obstacles) > 0.036 m^2;
+- candidates at platform height are projected into the image and dropped when occluded
+  (|camera depth - rendered depth| > 2.5 cm); at least 30 % of free cells must be visible;
+- the answer is the mean of the visible valid cells, or the valid point nearest to it when the
+  mean itself is not valid. The region's visible image mask is kept with the answer.
+Metric offsets ("10 cm to the right of the cup") solve for the single point that far beyond
+the anchor's extent, which must be free (2 cm clearance) and visible.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import ConvexHull
+
+from .facts import TABLE, ObjectFacts, ViewFacts
+from .geometry import inside_convex, project
+from .registry import predicate
+
+CELL_M = 0.01
+MIN_RADIUS_M = 0.20
+HALF_SECTOR_DEG = 45.0
+TOP_SHRINK = 0.8
+MIN_FREE_AREA_M2 = 0.036
+OCCLUSION_M = 0.025
+MIN_VISIBLE_SHARE = 0.3
+CLEARANCE_M = 0.015  # free cells keep this far from obstacle footprints
+EDGE_MARGIN_M = 0.02  # and this far inside the platform's edge
+OFFSET_CLEARANCE_M = 0.02
+DIRECTIONS = ("left", "right", "front", "behind")
+
+
+@dataclass(frozen=True)
+class Constraint:
+    kind: str  # "sector", "between", "on_top" or "offset"
+    anchors: tuple[int, ...]
+    direction: str | None = None  # one of DIRECTIONS, for sector and offset
+    offset_m: float | None = None  # for offset
+
+    def to_json(self) -> dict:
+        out = {"kind": self.kind, "anchors": list(self.anchors)}
+        if self.direction:
+            out["direction"] = self.direction
+        if self.offset_m is not None:
+            out["offset_m"] = self.offset_m
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class FreeSpace:
+    point: tuple[float, float]  # normalised image (x, y), 3 decimals
+    point_world_m: np.ndarray  # (3,)
+    mask: np.ndarray | None  # bool (H, W): visible free pixels of the region (None if not asked for)
+    area_m2: float  # free area of the region on the platform (visible or not)
+    support: int  # TABLE or the platform object's id
+
+
+def direction_axis(v: ViewFacts, direction: str) -> np.ndarray:
+    """Ground-plane unit vector of a viewer-frame direction."""
+    axes = {"left": -v.right_axis, "right": v.right_axis, "front": -v.forward_axis, "behind": v.forward_axis}
+    return axes[direction][:2]
+
+
+def solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool = True) -> FreeSpace | None:
+    """The free-space answer meeting every constraint, or None when there is none.
+
+    The image mask costs a pass over every pixel; statistics that need only the
+    point and area skip it (``with_mask=False``; ``mask`` is then None).
+    """
+    anchors = [v.objects[i] for c in constraints for i in c.anchors]
+    platform = _platform(v, constraints, anchors)
+    if platform is None:
+        return None
+    support, polygon, z = platform
+    cells = _grid(v, constraints, polygon)
+    keep = _in_regions(v, constraints, cells) & _free(v, cells, support, polygon)
+    area = float(keep.sum() * CELL_M**2)
+    if not any(c.kind == "offset" for c in constraints) and area <= MIN_FREE_AREA_M2:
+        return None
+    free = cells[keep]
+    visible = _visible(v, np.column_stack([free, np.full(len(free), z)]))
+    if len(free) == 0 or visible.sum() < max(1, MIN_VISIBLE_SHARE * len(free)):
+        return None
+    valid = free[visible]
+    mean = valid.mean(0)
+    nearest = valid[int(np.argmin(np.linalg.norm(valid - mean, axis=1)))]
+    # The mean of a ring-shaped or split region can fall on an obstacle: then use the nearest valid point.
+    chosen = mean if np.linalg.norm(nearest - mean) <= CELL_M else nearest
+    world = np.array([*chosen, z])
+    uv, _ = project(world[None], v.K, v.T_world_cam)
+    point = _normalised(v, uv[0])
+    if point is None:
+        return None
+    mask = None
+    if with_mask:
+        mask = _image_mask(v, constraints, support, polygon, z)
+        if not _on_mask(v, mask, point):
+            snapped = _snap(v, mask, uv[0])
+            if snapped is None:
+                return None
+            point, world = snapped, _lift(v, snapped, z)
+    return FreeSpace(point, world, mask, area, support)
+
+
+def _platform(v: ViewFacts, constraints, anchors: list[ObjectFacts]):
+    """(support id, platform polygon, top z) shared by all anchors, or None."""
+    if any(c.kind == "on_top" for c in constraints):
+        top = v.objects[next(c for c in constraints if c.kind == "on_top").anchors[0]]
+        if not top.is_support:
+            return None
+        centre = top.footprint_world.mean(0)
+        polygon = centre + TOP_SHRINK * (top.footprint_world - centre)
+        return top.object_id, polygon, float(top.aabb_world_m[1, 2])
+    supports = {a.support for a in anchors}
+    if len(supports) != 1 or None in supports:
+        return None
+    support = supports.pop()
+    if support == TABLE:
+        hx, hy = np.asarray(v.table_size_m) / 2
+        return TABLE, np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]), v.table_top_z_m
+    base = v.objects[support]
+    return support, base.footprint_world, float(base.aabb_world_m[1, 2])
+
+
+def _reach(a: ObjectFacts, axis: np.ndarray) -> tuple[float, float]:
+    """(the anchor's half extent along the axis, the sector radius beyond it)."""
+    half = 0.5 * a.extent_along(np.array([*axis, 0.0]))
+    diagonal = float(np.hypot(*(a.footprint_world[2] - a.footprint_world[0])))
+    return half, max(diagonal, MIN_RADIUS_M)
+
+
+def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> np.ndarray:
+    lo, hi = polygon.min(0), polygon.max(0)
+    for c in constraints:  # shrink the grid to the region's box when one is known
+        a = v.objects[c.anchors[0]]
+        if c.kind in ("sector", "offset"):
+            half, radius = _reach(a, direction_axis(v, c.direction))
+            centre, r = a.center_world_m[:2], half + radius + (c.offset_m or 0.0)
+            lo, hi = np.maximum(lo, centre - r), np.minimum(hi, centre + r)
+    if np.any(hi <= lo):
+        return np.zeros((0, 2))
+    xs = np.arange(lo[0] + CELL_M / 2, hi[0], CELL_M)
+    ys = np.arange(lo[1] + CELL_M / 2, hi[1], CELL_M)
+    return np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+
+
+def _in_regions(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
+    keep = np.ones(len(points), dtype=bool)
+    for c in constraints:
+        keep &= REGIONS[c.kind](v, c, points)
+    return keep
+
+
+def _sector(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
+    a = v.objects[c.anchors[0]]
+    axis = direction_axis(v, c.direction)
+    half, radius = _reach(a, axis)
+    rel = points - a.center_world_m[:2]
+    dist = np.linalg.norm(rel, axis=1)
+    along = rel @ axis
+    cos_limit = np.cos(np.radians(HALF_SECTOR_DEG))
+    return (along >= cos_limit * dist) & (dist <= half + radius) & (dist > 1e-9)
+
+
+def _between(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
+    corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
+    hull = corners[ConvexHull(corners).vertices]
+    return inside_convex(points, hull)
+
+
+def _on_top(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
+    return np.ones(len(points), dtype=bool)  # the platform polygon already is the shrunk top face
+
+
+def _offset(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
+    a = v.objects[c.anchors[0]]
+    axis = direction_axis(v, c.direction)
+    half, _ = _reach(a, axis)
+    target = a.center_world_m[:2] + (half + c.offset_m) * axis
+    return np.linalg.norm(points - target, axis=1) <= CELL_M * 1.5
+
+
+REGIONS = {"sector": _sector, "between": _between, "on_top": _on_top, "offset": _offset}
+
+
+def _free(v: ViewFacts, points: np.ndarray, support: int, polygon: np.ndarray) -> np.ndarray:
+    keep = inside_convex(points, polygon, grow=-EDGE_MARGIN_M)
+    for o in v.objects:
+        if o.object_id != support:  # everything but the platform itself is in the way, seen or not
+            keep &= ~inside_convex(points, o.footprint_world, grow=CLEARANCE_M)
+    return keep
+
+
+def _visible(v: ViewFacts, points_world: np.ndarray) -> np.ndarray:
+    uv, z = project(points_world, v.K, v.T_world_cam)
+    cols, rows = np.floor(uv[:, 0]).astype(int), np.floor(uv[:, 1]).astype(int)
+    ok = (z > 0) & (cols >= 0) & (cols < v.width) & (rows >= 0) & (rows < v.height)
+    out = np.zeros(len(points_world), dtype=bool)
+    out[ok] = np.abs(v.depth_m[rows[ok], cols[ok]] - z[ok]) <= OCCLUSION_M
+    return out
+
+
+def _image_mask(v: ViewFacts, constraints, support: int, polygon: np.ndarray, z: float) -> np.ndarray:
+    """Pixels whose ray meets the platform plane at a valid free point that is not occluded."""
+    rows, cols = np.mgrid[0 : v.height, 0 : v.width]
+    rays = np.stack([cols + 0.5, rows + 0.5, np.ones_like(cols)], axis=-1).reshape(-1, 3) @ np.linalg.inv(v.K).T
+    R, t = v.T_world_cam[:3, :3], v.T_world_cam[:3, 3]
+    dirs = rays @ R.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (z - t[2]) / dirs[:, 2]  # optical-axis depth of the plane hit (rays have z = 1)
+    hit = t[:2] + dirs[:, :2] * s[:, None]
+    ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m.reshape(-1) - s) <= OCCLUSION_M)
+    idx = np.nonzero(ok)[0]
+    good = _in_regions(v, constraints, hit[idx]) & _free(v, hit[idx], support, polygon)
+    mask = np.zeros(v.width * v.height, dtype=bool)
+    mask[idx[good]] = True
+    return mask.reshape(v.height, v.width)
+
+
+def _snap(v: ViewFacts, mask: np.ndarray, uv: np.ndarray) -> tuple[float, float] | None:
+    """The mask pixel nearest to an image point, as a normalised point that rounds back onto the mask."""
+    rows, cols = np.nonzero(mask)
+    if len(rows) == 0:
+        return None
+    k = int(np.argmin((cols + 0.5 - uv[0]) ** 2 + (rows + 0.5 - uv[1]) ** 2))
+    point = _normalised(v, np.array([cols[k] + 0.5, rows[k] + 0.5]))
+    return point if point is not None and _on_mask(v, mask, point) else None
+
+
+def _normalised(v: ViewFacts, uv: np.ndarray) -> tuple[float, float] | None:
+    x, y = round(float(uv[0]) / v.width, 3), round(float(uv[1]) / v.height, 3)
+    return (x, y) if 0 <= x < 1 and 0 <= y < 1 else None
+
+
+def _on_mask(v: ViewFacts, mask: np.ndarray, point: tuple[float, float]) -> bool:
+    return bool(mask[int(point[1] * v.height), int(point[0] * v.width)])
+
+
+def _lift(v: ViewFacts, point: tuple[float, float], z: float) -> np.ndarray:
+    """World point on the plane z seen at a normalised image point."""
+    ray = np.linalg.inv(v.K) @ np.array([point[0] * v.width, point[1] * v.height, 1.0])
+    d = v.T_world_cam[:3, :3] @ ray
+    t = v.T_world_cam[:3, 3]
+    return t + d * (z - t[2]) / d[2]
+
+
+@predicate("free_space", family="free_space", arity=1, frame="viewer", kind="region")
+def free_space(v: ViewFacts, a: ObjectFacts, direction: str = "left") -> FreeSpace | None:
+    """A free, visible point on A's support in a viewer-frame direction from A (see module docstring)."""
+    return solve(v, (Constraint("sector", (a.object_id,), direction),), with_mask=False)

@@ -1,0 +1,89 @@
+"""Object-centric sides and positions on the support: facing/back side, corner/edge."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .facts import TABLE, ObjectFacts, ViewFacts
+from .registry import Verdict, predicate
+
+FACING_DEG = 45.0  # within this of B's front: on its facing side (or back side, mirrored)
+NOT_FACING_DEG = 75.0  # beyond this from the front direction: clearly not on the facing side
+MIN_FRONT_TILT = 0.7  # |horizontal part| of B's front: fronts pointing up/down have no side
+EDGE_M = (0.10, 0.18)  # at the edge: within 10 cm of a table edge; clearly not beyond 18 cm
+CORNER_M = (0.18, 0.28)  # at a corner: within 18 cm of both edges at a corner; not when either > 28 cm
+
+
+def _side_angle(a: ObjectFacts, b: ObjectFacts) -> float | None:
+    """Angle in degrees between B's horizontal front and the direction from B to A on the ground."""
+    if b.front_world is None:
+        return None
+    front = np.asarray(b.front_world[:2], dtype=float)
+    if np.linalg.norm(front) < MIN_FRONT_TILT:
+        return None
+    to_a = a.center_world_m[:2] - b.center_world_m[:2]
+    if np.linalg.norm(to_a) < 1e-6:
+        return None
+    cosine = front @ to_a / (np.linalg.norm(front) * np.linalg.norm(to_a))
+    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+
+
+def _within(angle: float | None, near: float, far: float) -> Verdict:
+    if angle is None:
+        return None
+    if angle <= near:
+        return True
+    if angle >= far:
+        return False
+    return None
+
+
+@predicate("on_facing_side", family="face_back", arity=2, frame="object", inverse=None)
+def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
+    """A lies on B's semantic front side (its handle, screen, spout, label...), in B's own frame.
+
+    The angle between B's ground-projected front vector and the direction from B
+    to A: True within 45 degrees, False beyond 75, undecided between; undecided
+    when B's front points mostly up or down.
+    """
+    return _within(_side_angle(a, b), FACING_DEG, NOT_FACING_DEG)
+
+
+@predicate("on_back_side", family="face_back", arity=2, frame="object", inverse=None)
+def on_back_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
+    """A lies on the side of B opposite its front: the facing-side test mirrored (angle measured from -front)."""
+    angle = _side_angle(a, b)
+    return _within(None if angle is None else 180.0 - angle, FACING_DEG, NOT_FACING_DEG)
+
+
+def _edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
+    """Distances (x, y) from A's footprint to the nearest table edges, for objects standing on the table."""
+    if a.support != TABLE or not v.table_size_m[0]:
+        return None
+    half = np.asarray(v.table_size_m) / 2
+    corners = a.footprint_world
+    return half - np.abs(corners).max(axis=0)
+
+
+@predicate("at_edge", family="corner_edge", arity=1, frame="world")
+def at_edge(v: ViewFacts, a: ObjectFacts) -> Verdict:
+    """A stands on the table with its footprint within 10 cm of a table edge (False beyond 18 cm).
+
+    Only for objects whose support is the table; undecided otherwise.
+    """
+    d = _edge_distances(v, a)
+    if d is None:
+        return None
+    nearest = float(d.min())
+    return True if nearest <= EDGE_M[0] else (False if nearest >= EDGE_M[1] else None)
+
+
+@predicate("at_corner", family="corner_edge", arity=1, frame="world")
+def at_corner(v: ViewFacts, a: ObjectFacts) -> Verdict:
+    """A stands on the table within 18 cm of both edges meeting at a corner (False if either is > 28 cm)."""
+    d = _edge_distances(v, a)
+    if d is None:
+        return None
+    if float(d.max()) <= CORNER_M[0]:
+        return True
+    return False if float(d.max()) >= CORNER_M[1] else None

@@ -1,0 +1,85 @@
+"""World-frame vertical order and containment: above/below, inside/outside."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .facts import ObjectFacts, ViewFacts
+from .geometry import inside_convex, overlap_share
+from .registry import Verdict, predicate
+
+STACK_TOLERANCE_M = 0.02  # A's bottom may sink this far below B's top (rims, soft contact)
+OVERLAP_ABOVE = 0.3  # share of the smaller footprint that must overlap to call one above the other
+CAVITY_INNER = 0.9  # A's centre must lie within this share of the cavity's half extents
+CAVITY_OUTSIDE_M = 0.01  # clearly outside: centre beyond the container's footprint grown by this
+
+
+def _overlap(a: ObjectFacts, b: ObjectFacts) -> float:
+    small, big = (a, b) if a.footprint_m.prod() <= b.footprint_m.prod() else (b, a)
+    return overlap_share(small.footprint_world, big.footprint_world)
+
+
+@predicate("above", family="world_above_below", arity=2, frame="world", inverse="below")
+def above(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
+    """A is above B along gravity: footprints overlap and A's bottom is at or over B's top.
+
+    True: overlap >= 30 % of the smaller footprint and A's bottom >= B's top - 2 cm.
+    False: the footprints do not meet, or A's top is below B's bottom + 2 cm.
+    Undecided otherwise (partial overlap, interleaved heights).
+    """
+    overlap = _overlap(a, b)
+    if overlap >= OVERLAP_ABOVE and a.aabb_world_m[0, 2] >= b.aabb_world_m[1, 2] - STACK_TOLERANCE_M:
+        return True
+    if overlap == 0.0 or a.aabb_world_m[1, 2] <= b.aabb_world_m[0, 2] + STACK_TOLERANCE_M:
+        return False
+    return None
+
+
+@predicate("below", family="world_above_below", arity=2, frame="world", inverse="above")
+def below(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
+    """A is below B along gravity: exactly ``above(B, A)``."""
+    return above(v, b, a)
+
+
+def containment(a: ObjectFacts, container: ObjectFacts) -> Verdict:
+    """Whether A's centre lies in the container's cavity (object frame of the container).
+
+    True: A's centre within 90 % of the cavity's half extents and A's bottom between
+    the cavity floor - 1 cm and its rim. False: no cavity, A's centre outside the
+    container's footprint grown by 1 cm, or A's bottom over the rim by > 2 cm.
+    """
+    cav = container.cavity
+    if cav is None or container.pose_world is None:
+        return False
+    inv = np.linalg.inv(container.pose_world)
+    centre = inv[:3, :3] @ a.center_world_m + inv[:3, 3]
+    bottom = float((inv[:3, :3] @ np.array([*a.center_world_m[:2], a.aabb_world_m[0, 2]]) + inv[:3, 3])[2])
+    hx, hy = cav.half_extents_m
+    if cav.shape == "cylinder":
+        within = np.hypot(centre[0], centre[1]) <= CAVITY_INNER * hx
+    else:
+        within = abs(centre[0]) <= CAVITY_INNER * hx and abs(centre[1]) <= CAVITY_INNER * hy
+    if within and cav.floor_z_m - 0.01 <= bottom <= cav.rim_z_m:
+        return True
+    outside = not inside_convex(a.center_world_m[None, :2], container.footprint_world, CAVITY_OUTSIDE_M)[0]
+    if outside or bottom > cav.rim_z_m + STACK_TOLERANCE_M:
+        return False
+    return None
+
+
+@predicate("inside", family="inside_outside", arity=2, frame="object", inverse=None)
+def inside(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
+    """A lies inside container B's cavity (bowl, cup, mug, basket, box...). See ``containment``.
+
+    Undecided when B is not a container (asking would be meaningless) and near the rim.
+    """
+    if b.cavity is None:
+        return None
+    return containment(a, b)
+
+
+@predicate("outside", family="inside_outside", arity=2, frame="object", inverse=None)
+def outside(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
+    """A is outside container B: the negation of ``inside`` with the same undecided band."""
+    verdict = inside(v, a, b)
+    return None if verdict is None else not verdict
