@@ -12,8 +12,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Iterator
 
-import numpy as np
-
 from .assets import Catalogue
 from .camera import frame_cameras
 from .compose import SceneRejected, compose
@@ -21,9 +19,10 @@ from .physics import settle
 from .questions import questions_for_view
 from .recipe import Recipe
 from .records import Record
-from .relations import ObjectFacts, ViewFacts, computed_relations, view_facts
+from .relations import ViewFacts, computed_relations, view_facts
+from .relations.stored import facts_from_record, object_record, rounded
 from .render import View, render_views
-from .scene import PlacedObject, Scene, quat_to_matrix
+from .scene import Scene
 from .seeding import stage_rng
 
 STAGES = ("compose", "physics", "camera", "render", "relations", "questions")
@@ -68,34 +67,22 @@ def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutc
         return out
     with _timed(out.seconds, "render"):
         views = render_views(scene, catalogue.materials)
-    for index, view in enumerate(views):
-        out.records.append(_record(recipe, scene, index, view, out.seconds))
+    with _timed(out.seconds, "relations"):
+        described = [scene_dict(scene, i, v, view_facts(scene, v)) for i, v in enumerate(views)]
+        # Questions see the facts as stored, so re-executing a program on the record gives the same answer.
+        facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam) for d, v in zip(described, views)]
+        relations = [computed_relations(f) for f in facts]
+    keys = [f"{scene.scene_id}/{v.camera.name}" for v in views]
+    for i, view in enumerate(views):
+        with _timed(out.seconds, "questions"):
+            rng = stage_rng(recipe.hash, scene.seed, f"questions/{view.camera.name}")
+            # Multi-view questions treat the previous view (cyclically) as image 1.
+            other = (keys[i - 1], facts[i - 1]) if len(views) > 1 else None
+            qa = questions_for_view(facts[i], recipe["questions"], rng, keys[i], other)
+        out.records.append(Record(key=keys[i], scene=described[i], rgb=view.rgb, depth_m=view.depth_m,
+                                  seg=view.seg, K=view.K, T_world_cam=view.T_world_cam,
+                                  relations=relations[i], qa=qa))
     return out
-
-
-def _record(recipe: Recipe, scene: Scene, index: int, view: View, seconds: dict[str, float]) -> Record:
-    key = f"{scene.scene_id}/{view.camera.name}"
-    with _timed(seconds, "relations"):
-        facts = view_facts(scene, view)
-        relations = computed_relations(facts)
-    with _timed(seconds, "questions"):
-        rng = stage_rng(recipe.hash, scene.seed, f"questions/{view.camera.name}")
-        qa = questions_for_view(facts, recipe["questions"], rng, key)
-    return Record(
-        key=key,
-        scene=scene_dict(scene, index, view, facts),
-        rgb=view.rgb,
-        depth_m=view.depth_m,
-        seg=view.seg,
-        K=view.K,
-        T_world_cam=view.T_world_cam,
-        relations=relations,
-        qa=qa,
-    )
-
-
-def _round(values, digits: int = 6) -> list[float]:
-    return [round(float(v), digits) for v in np.asarray(values).ravel()]
 
 
 def scene_dict(scene: Scene, index: int, view: View, facts: ViewFacts) -> dict:
@@ -111,38 +98,11 @@ def scene_dict(scene: Scene, index: int, view: View, facts: ViewFacts) -> dict:
         "views": len(scene.cameras),
         "width": cam.width,
         "height": cam.height,
-        "camera": {"pos_world_m": _round(cam.pos_world_m), "quat_wxyz": _round(cam.quat_wxyz),
+        "camera": {"pos_world_m": rounded(cam.pos_world_m), "quat_wxyz": rounded(cam.quat_wxyz),
                    "fovy_deg": round(cam.fovy_deg, 6)},
-        "table": {"size_m": _round(scene.table.size_m), "top_z_m": scene.table.top_z_m,
-                  "rgba": _round(scene.table.rgba, 4), "texture": scene.table.texture},
-        "light": {"dir_world": _round(scene.light.dir_world), "intensity": round(scene.light.intensity, 6)},
-        "objects": [_object_dict(o, facts.objects[o.object_id]) for o in scene.objects],
-    }
-
-
-def _object_dict(obj: PlacedObject, facts: ObjectFacts) -> dict:
-    a = obj.asset
-    R = quat_to_matrix(obj.pose.quat_wxyz)
-    lo, hi = a.visual.bounds_m
-    centre_local = (lo + hi) / 2
-    return {
-        "id": obj.object_id,
-        "category": a.category,
-        "name": a.name,
-        "color": a.color,
-        "rgba": _round(a.rgba, 4),
-        "material": a.material,
-        "licence": a.licence,
-        "params": {k: round(float(v), 6) for k, v in sorted(a.params.items())},
-        "pose": {"pos_world_m": _round(obj.pose.pos_world_m), "quat_wxyz": _round(obj.pose.quat_wxyz)},
-        "box_world": {
-            "center_m": _round(R @ centre_local + obj.pose.pos_world_m),
-            "size_m": _round(hi - lo),
-            "quat_wxyz": _round(obj.pose.quat_wxyz),
-        },
-        "aabb_world_m": [_round(facts.aabb_world_m[0]), _round(facts.aabb_world_m[1])],
-        "front_world": _round(R @ np.asarray(a.front_local)),
-        "front_side": a.front_side,
-        "visible_px": facts.visible_px,
-        "visibility": facts.status,
+        "table": {"size_m": rounded(scene.table.size_m), "top_z_m": scene.table.top_z_m,
+                  "rgba": rounded(scene.table.rgba, 4), "texture": scene.table.texture},
+        "light": {"dir_world": rounded(scene.light.dir_world), "intensity": round(scene.light.intensity, 6)},
+        "contacts": [list(p) for p in scene.contacts],
+        "objects": [object_record(o, facts.objects[o.object_id]) for o in scene.objects],
     }

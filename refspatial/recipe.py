@@ -106,8 +106,8 @@ def _size_ranges(v: Any) -> str | None:
     return "expected [[xmin, xmax], [ymin, ymax]] in metres"
 
 
-FAMILIES = ("location", "choice")
-MAX_STEPS = 3
+FAMILIES = ("location", "placement", "identify", "choice", "quantitative", "multiview", "visual_choice")
+MAX_STEPS = 5
 
 SCHEMA: dict[str, dict[str, Callable[[Any], str | None]]] = {
     "objects": {

@@ -41,7 +41,12 @@ def obj(oid: int, category: str, color: str, x: float, y: float, size: float = 0
     )
 
 
-def view(*objects: ObjectFacts, contacts=()) -> ViewFacts:
+def view(*objects: ObjectFacts, contacts=(), T_world_cam: np.ndarray = T) -> ViewFacts:
+    """A view whose segmentation paints a 7x7 square at each seen object's centroid."""
     seg = np.full(SHAPE, -1, dtype=np.int32)
+    for o in objects:
+        if o.centroid_px is not None:
+            c, r = int(o.centroid_px[0]), int(o.centroid_px[1])
+            seg[max(r - 3, 0): r + 4, max(c - 3, 0): c + 4] = o.object_id
     return ViewFacts(tuple(objects), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), seg,
-                     np.ones(SHAPE, dtype=np.float32), K, T, (1.2, 0.8), 0.0, frozenset(contacts))
+                     np.ones(SHAPE, dtype=np.float32), K, T_world_cam, (1.2, 0.8), 0.0, frozenset(contacts))

@@ -5,17 +5,20 @@ import json
 import numpy as np
 import pytest
 
+import shutil
+
+from refspatial.annotate import rle_decode
 from refspatial.data import RefSpatialDataset
-from refspatial.questions import execute
 from refspatial.questions.phrases import Phrasebook
-from refspatial.relations import ObjectFacts, ViewFacts
+from refspatial.records import Record, ShardReader, ShardWriter, sha256_file
 from refspatial.shards import generate
+from refspatial.verify import verify
 
 
 def test_manifest_accounts_for_every_scene(tiny_dataset):
     m = json.loads((tiny_dataset / "manifest.json").read_text())
     assert m["scenes"] == 8 and [s["scenes"] for s in m["shards"]] == [[0, 3], [3, 6], [6, 8]]
-    assert m["records"] + m["rejected"]["count"] == 8  # one view per scene in the tiny recipe
+    assert m["records"] == 2 * (8 - m["rejected"]["count"])  # two views per scene
     assert m["records"] >= 4, "most tiny scenes should survive"
     assert sum(s["qa"] for s in m["shards"]) == m["qa"]
     assert len(m["recipe_hash"]) == 64 and "name: tiny" in m["recipe_yaml"]
@@ -41,47 +44,64 @@ def test_loader_yields_documented_samples(tiny_dataset, tiny):
             assert 1 <= qa["num_steps"] <= 5
 
 
-def _facts_from_record(sample) -> ViewFacts:
-    """Rebuild view facts from what the record stores, so answers are checked from the data alone."""
-    from refspatial.relations.facts import _horizontal
-
-    R = sample["T_world_cam"][:3, :3]
-    right, forward = _horizontal(R[:, 0]), _horizontal(R[:, 2])
-    seg, depth = sample["seg"], sample["depth_m"]
-    objs = []
-    for o in sample["objects"]:
-        aabb = np.array(o["aabb_world_m"])
-        c = aabb.mean(0)
-        px = int((seg == o["id"]).sum())
-        d = float(np.median(depth[seg == o["id"]])) if px else float("inf")
-        objs.append(ObjectFacts(o["id"], o["category"], o["name"], o["color"], aabb, float(c @ right),
-                                float(c @ forward), d, px, o["visibility"]))
-    return ViewFacts(tuple(objs), right, forward, seg, depth)
+def test_verify_finds_every_answer_correct(tiny_dataset):
+    report = verify(tiny_dataset)
+    assert report.failures == []
+    assert report.qa >= 40 and report.checks == report.qa
 
 
-def test_every_answer_is_verified_against_the_stored_data(tiny_dataset):
-    checked = 0
+def test_every_point_answer_lies_on_its_target(tiny_dataset):
+    """Independent of verify: read through the loader and look at the masks directly."""
     suffix = Phrasebook.get().point_suffix
-    for s in RefSpatialDataset(tiny_dataset):
-        facts = _facts_from_record(s)
+    checked = 0
+    samples = {s["key"]: s for s in RefSpatialDataset(tiny_dataset)}
+    for s in samples.values():
         h, w = s["seg"].shape
         for qa in s["qa"]:
-            program = [{k: v for k, v in n.items() if k != "result"} for n in qa["steps"]]
-            assert execute(program, facts) == [n["result"] for n in qa["steps"]], qa["question"]
-            if qa["kind"] == "point":
-                assert qa["question"] == f"{qa['prompt']} {suffix}"
-                assert qa["answer_points"]
-                for x, y in qa["answer_points"]:
-                    assert 0 <= x <= 1 and 0 <= y <= 1 and round(x, 3) == x
-                    assert s["seg"][int(y * h), int(x * w)] == qa["target_id"], qa["question"]
-                for step in qa["reasoning_steps"]:
-                    px, py = step["point"]
-                    assert s["seg"][int(py * h), int(px * w)] == step["object_id"]
-                assert qa["reasoning"].startswith("<think>") and qa["reasoning"].endswith(f"<answer>{qa['answer']}</answer>")
-            else:
-                assert qa["answer"] in ("(A)", "(B)")
+            if qa["kind"] != "point":
+                continue
+            assert qa["question"] == f"{qa['prompt']} {suffix}"
+            mask = rle_decode(qa["free_mask"]) if qa["family"] == "placement" else s["seg"] == qa["target_id"]
+            for x, y in qa["answer_points"]:
+                assert 0 <= x < 1 and 0 <= y < 1 and round(x, 3) == x
+                assert mask[int(y * h), int(x * w)], qa["question"]
+            for step in qa["reasoning_steps"]:
+                if step["kind"] != "Position" or step["object_id"] is None:
+                    continue
+                seg = samples[qa["images"][0]]["seg"] if step.get("view") == "other" else s["seg"]
+                px, py = step["point"]
+                assert seg[int(py * h), int(px * w)] == step["object_id"]
+            assert qa["reasoning"].startswith("<think>") and qa["reasoning"].endswith(f"<answer>{qa['answer']}</answer>")
             checked += 1
-    assert checked >= 20
+    assert checked >= 10
+
+
+def test_verify_catches_a_wrong_answer(tiny_dataset, tmp_path):
+    """Rewrite one shard with a point moved off its target; verify must name it."""
+    broken = tmp_path / "broken"
+    shutil.copytree(tiny_dataset, broken)
+    manifest = json.loads((broken / "manifest.json").read_text())
+    entry = manifest["shards"][0]
+    path = broken / entry["file"]
+    reader = ShardReader(path)
+    records = [reader.read(i) for i in range(len(reader))]
+    meta = reader.metadata()
+    victim = next((r, q) for r in records for q in r["qa"] if q["kind"] == "point" and q["family"] == "location")
+    record, qa = victim
+    rows, cols = np.nonzero(record["seg"] != qa["target_id"])
+    qa["answer_points"] = [[round((cols[0] + 0.5) / record["seg"].shape[1], 3), round((rows[0] + 0.5) / record["seg"].shape[0], 3)]]
+    path.unlink()
+    with ShardWriter(path, meta) as writer:
+        for r in records:
+            writer.write(Record(r["key"], r["scene"], r["rgb"], r["depth_m"], r["seg"], r["K"], r["T_world_cam"],
+                                r["relations"], r["qa"]))
+    report = verify(broken)
+    assert any("sha256" in f for f in report.failures)  # the manifest no longer matches
+    entry["sha256"] = sha256_file(path)
+    (broken / "manifest.json").write_text(json.dumps(manifest))
+    report = verify(broken)
+    assert len(report.failures) == 1 and "not on the target's mask" in report.failures[0]
+    assert record["key"] in report.failures[0]
 
 
 def test_same_command_gives_identical_bytes_whatever_the_worker_count(tiny_dataset, tiny, catalogue, tmp_path):

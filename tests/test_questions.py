@@ -1,12 +1,16 @@
+"""The question engine on hand-built views: programs, descriptions, step counts and every family."""
+
 import numpy as np
 import pytest
 
-from refspatial.questions.generate import format_points, questions_for_view
+from refspatial.annotate import rle_decode
+from refspatial.questions import FAMILIES, execute, questions_for_view
+from refspatial.questions.common import format_points
 from refspatial.questions.phrases import Phrasebook
-from refspatial.questions.program import ProgramError, count_steps, execute, is_degenerate
+from refspatial.questions.program import OPS, ProgramError, count_steps, is_degenerate
 from refspatial.questions.refer import Ordinal, Ref, Relation, anchored_refs, compile_ref, resolves, simple_refs
 
-from helpers import obj, view
+from helpers import T, obj, view
 
 MUGS = view(
     obj(0, "mug", "red", -0.3, 0.0),
@@ -15,21 +19,24 @@ MUGS = view(
     obj(3, "bowl", "green", 0.15, 0.35),
     obj(4, "plate", "white", -0.15, 0.35),
 )
+SPEC = {"per_view": 10, "attempts_per_question": 10, "answer_points": 2,
+        "families": {f: 1 for f in FAMILIES}, "steps": {1: 1, 2: 1, 3: 1, 4: 1, 5: 1}}
 
 
-def run(ref: Ref):
+def run(ref: Ref, v=MUGS):
     program = []
     compile_ref(ref, program)
-    return program, execute(program, MUGS)
+    return program, execute(program, v)
+
+
+def strip(steps):
+    return [{k: v for k, v in n.items() if k != "result"} for n in steps]
 
 
 def test_filter_and_ordinal_pick_one_object():
-    _, values = run(Ref(0, "mug", "mug", "red", Ordinal("left_right", "left", 1)))
-    assert values[-1] == 0
-    _, values = run(Ref(1, "mug", "mug", None, Ordinal("left_right", "left", 2)))
-    assert values[-1] == 1
-    _, values = run(Ref(2, "mug", "mug", "blue"))
-    assert values[-1] == 2
+    assert run(Ref(0, "mug", "mug", "red", Ordinal("left_right", "left", 1)))[1][-1] == 0
+    assert run(Ref(1, "mug", "mug", None, Ordinal("left_right", "left", 2)))[1][-1] == 1
+    assert run(Ref(2, "mug", "mug", "blue"))[1][-1] == 2
 
 
 def test_ambiguous_descriptions_fail():
@@ -39,87 +46,122 @@ def test_ambiguous_descriptions_fail():
 
 def test_ordinal_near_tie_fails():
     v = view(obj(0, "cup", "red", 0.0, 0.0), obj(1, "cup", "red", 0.01, 0.3), obj(2, "cup", "red", 0.4, 0.0))
-    program = []
-    compile_ref(Ref(0, "cup", "cup", None, Ordinal("left_right", "left", 1)), program)
     with pytest.raises(ProgramError, match="near-tie"):
-        execute(program, v)
+        run(Ref(0, "cup", "cup", None, Ordinal("left_right", "left", 1)), v)
 
 
-def test_relation_and_step_count():
-    bowl = Ref(3, "bowl", "bowl")
-    ref = Ref(1, "mug", "mug", "red", relations=(Relation("right_of", (Ref(0, "mug", "mug", "red", Ordinal("left_right", "left", 1)),)),))
-    program, values = run(ref)
+def test_relations_and_step_counts():
+    leftmost = Ref(0, "mug", "mug", "red", Ordinal("left_right", "left", 1))
+    program, values = run(Ref(1, "mug", "mug", "red", relations=(Relation("right_of", (leftmost,)),)))
     assert values[-1] == 1 and count_steps(program) == 2
-    between = Ref(1, "mug", "mug", relations=(Relation("between", (Ref(0, "mug", "mug", "red", Ordinal("left_right", "left", 1)), Ref(2, "mug", "mug", "blue"))),))
-    program, values = run(between)
+    between = Relation("between", (leftmost, Ref(2, "mug", "mug", "blue")))
+    program, values = run(Ref(1, "mug", "mug", relations=(between,)))
     assert values[-1] == 1 and count_steps(program) == 3
-    two = Ref(1, "mug", "mug", relations=(Relation("right_of", (Ref(4, "plate", "plate"),)), Relation("left_of", (bowl,))))
-    program, values = run(two)
+    two = (Relation("right_of", (Ref(4, "plate", "plate"),)), Relation("left_of", (Ref(3, "bowl", "bowl"),)))
+    program, values = run(Ref(1, "mug", "mug", relations=two))
     assert values[-1] == 1 and count_steps(program) == 4
+    program, values = run(Ref(1, "mug", "mug", relations=(between, two[0])))
+    assert values[-1] == 1 and count_steps(program) == 5
+    assert count_steps(run(Ref(2, "mug", "mug", "blue"))[0]) == 1
 
 
 def test_degenerate_relation_is_detected():
-    # "the blue mug left of the bowl": the colour alone already picks it.
+    # "the blue mug right of the plate": the colour alone already picks it.
     ref = Ref(2, "mug", "mug", "blue", relations=(Relation("right_of", (Ref(4, "plate", "plate"),)),))
-    program = []
-    compile_ref(ref, program)
-    assert execute(program, MUGS)[-1] == 2
-    assert is_degenerate(program, MUGS)
-    assert not resolves(ref, MUGS)
+    program, values = run(ref)
+    assert values[-1] == 2 and is_degenerate(program, MUGS) and not resolves(ref, MUGS)
 
 
 def test_marginal_lookalike_blocks_descriptions():
-    v = view(obj(0, "mug", "red", -0.3, 0.0), obj(1, "mug", "red", 0.3, 0.0, status="marginal"), obj(2, "bowl", "red", 0, 0.3))
+    v = view(obj(0, "mug", "red", -0.3, 0.0), obj(1, "mug", "red", 0.3, 0.0, status="marginal"),
+             obj(2, "bowl", "red", 0, 0.3))
     assert simple_refs(v, v.objects[0]) == []
-    assert simple_refs(v, v.objects[2])  # other categories are still fine
+    assert simple_refs(v, v.objects[2])
 
 
-def test_every_generated_reference_resolves_to_its_target():
-    rng = np.random.default_rng(0)
+def test_unary_relation_description_counts_one_step():
+    v = view(obj(0, "cup", "red", 0.0, 0.0), obj(1, "cup", "red", 0.1, 0.35), obj(2, "bowl", "red", -0.3, 0.0))
+    refs = anchored_refs(v, v.objects[1], 1, np.random.default_rng(0), Phrasebook.get().phrased)
+    assert refs and all(r.relations[0].predicate in ("at_edge", "behind") or r.steps == 1 for r in refs)
+    program, values = run(refs[0], v)
+    assert values[-1] == 1 and count_steps(program) == 1
+    text, _ = Phrasebook.get().describe(refs[0], np.random.default_rng(0), v)
+    assert "table" in text
+
+
+@pytest.mark.parametrize("steps", [2, 3, 4, 5])
+def test_generated_descriptions_resolve_with_their_step_count(steps):
+    rng = np.random.default_rng(steps)
+    found = 0
     for target in MUGS.askable():
-        for ref in simple_refs(MUGS, target):
-            assert resolves(ref, MUGS) and ref.object_id == target.object_id
-        for steps in (2, 3, 4, 5):
-            for ref in anchored_refs(MUGS, target, steps, rng):
-                assert ref.steps == steps
-                program = []
-                compile_ref(ref, program)
-                assert execute(program, MUGS)[-1] == target.object_id
-                assert count_steps(program) == steps
+        for any_category in (False, True):
+            for ref in anchored_refs(MUGS, target, steps, rng, Phrasebook.get().phrased, any_category):
+                program, values = run(ref)
+                assert values[-1] == target.object_id and count_steps(program) == steps == ref.steps
+                assert not is_degenerate(program, MUGS)
+                found += 1
+    assert found > 0
 
 
-def test_phrasebook_words():
-    rng = np.random.default_rng(1)
-    book = Phrasebook.get()
-    text, texts = book.describe(Ref(1, "mug", "mug", None, Ordinal("left_right", "left", 2)), rng)
-    assert text == "the second mug from the left"
-    assert book.point_suffix.startswith("Your answer should be formatted as a list of tuples, i.e. [(x1, y1)]")
-    assert book.point_suffix.endswith("indicating the normalized pixel locations of the points in the image.")
-    assert format_points([[0.1, 0.25]]) == "[(0.100, 0.250)]"
+def test_count_measure_and_mark_operations():
+    program = [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": "mug", "color": None},
+               {"op": "count", "inputs": [1]}]
+    assert execute(program, MUGS)[-1] == 3
+    program = []
+    a = compile_ref(Ref(2, "mug", "mug", "blue"), program)
+    b = compile_ref(Ref(4, "plate", "plate"), program)
+    program.append({"op": "measure", "inputs": [a, b], "quantity": "distance_between"})
+    d = np.linalg.norm(MUGS.objects[2].center_world_m - MUGS.objects[4].center_world_m)
+    assert execute(program, MUGS)[-1] == pytest.approx(d, abs=1e-4)
+    program[-1] = {"op": "mark", "inputs": [a], "marks": [{"label": "A", "object_id": 4}, {"label": "B", "object_id": 2}]}
+    assert execute(program, MUGS)[-1] == "B"
 
 
-def test_roborefer_suffix_is_byte_exact():
+def test_camera_move_between_two_views():
+    moved = T.copy()
+    moved[:3, 3] += [0.3, 0, 0]  # the camera slid to its right
+    views = {"other": MUGS, "self": view(*MUGS.objects, T_world_cam=moved)}
+    assert execute([{"op": "camera_move", "motion": "shift"}], views)[-1] == "right"
+    with pytest.raises(ProgramError):
+        execute([{"op": "camera_move", "motion": "turn"}], views)  # no turn at all
+
+
+def test_phrasebook_has_three_phrasings_per_template_and_the_exact_suffix():
+    data = Phrasebook.get().data
+    for family in ("location", "placement", "identify_name", "identify_point", "yes_no", "yes_no_unary", "pick",
+                   "multiview_point", "visual_choice"):
+        assert len(data[family]) >= 3, family
+    for kind, options in {**data["quantity"], **data["camera_move"]}.items():
+        assert len(options) >= 3, kind
     expected = ("Your answer should be formatted as a list of tuples, i.e. [(x1, y1)], where each tuple contains "
                 "the x and y coordinates of a point satisfying the conditions above. The coordinates should be "
                 "between 0 and 1, indicating the normalized pixel locations of the points in the image.")
     assert Phrasebook.get().point_suffix == expected
+    assert format_points([[0.1, 0.25]]) == "[(0.100, 0.250)]"
 
 
-def test_questions_for_view_with_masks():
-    v = view(obj(0, "mug", "red", -0.3, 0.0), obj(1, "mug", "red", 0.3, 0.0), obj(2, "bowl", "blue", 0, 0.3))
-    v.seg[10:20, 5:15] = 0
-    v.seg[10:20, 60:70] = 1
-    v.seg[30:40, 30:40] = 2
-    spec = {"per_view": 8, "attempts_per_question": 10, "answer_points": 2,
-            "families": {"location": 1, "choice": 1}, "steps": {1: 1, 2: 1}}
-    qa = questions_for_view(v, spec, np.random.default_rng(3), "k")
-    assert len(qa) >= 5 and len({q["question"] for q in qa}) == len(qa)
+def test_every_op_documents_itself():
+    for name, fn in OPS.items():
+        assert fn.__doc__, name
+
+
+def test_families_on_a_hand_built_view():
+    other = view(*MUGS.objects)
+    qa = questions_for_view(MUGS, {**SPEC, "per_view": 40}, np.random.default_rng(3), "k", ("k0", other))
+    families = {q["family"] for q in qa}
+    assert {"location", "identify", "choice", "quantitative", "visual_choice", "multiview"} <= families
+    assert len({q["question"] for q in qa}) == len(qa)
     for q in qa:
-        values = execute([{k: n[k] for k in n if k != "result"} for n in q["steps"]], v)
-        assert values == [n["result"] for n in q["steps"]]
+        views = {"self": MUGS, "other": other}
+        assert execute(strip(q["steps"]), views) == [n["result"] for n in q["steps"]]
         if q["kind"] == "point":
             assert q["question"].endswith(Phrasebook.get().point_suffix)
+            answer_view = MUGS
+            on = rle_decode(q["free_mask"]) if q["family"] == "placement" else answer_view.seg == q["target_id"]
             for x, y in q["answer_points"]:
-                assert v.seg[int(y * 60), int(x * 80)] == q["target_id"]
-        else:
-            assert q["answer"] in ("(A)", "(B)")
+                assert on[int(y * MUGS.height), int(x * MUGS.width)]
+            assert q["reasoning"].startswith("<think>[Position]")
+        if q["kind"] in ("yes_no", "pick", "box"):
+            assert q["answer"].startswith("(")
+        if q["family"] == "multiview":
+            assert q["images"] == ["k0", "k"]

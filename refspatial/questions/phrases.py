@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from ..relations import ViewFacts
 from .refer import Ordinal, Ref, Relation
 
 TEMPLATES = Path(__file__).with_name("templates.yaml")
@@ -26,40 +27,60 @@ class Phrasebook:
     def get() -> "Phrasebook":
         return Phrasebook(yaml.safe_load(TEMPLATES.read_text(encoding="utf-8")))
 
+    @property
+    def phrased(self) -> set[str]:
+        """Predicates with forward phrases, plus "name:reverse" for those with reverse ones."""
+        rel = self.data["relations"]
+        return set(rel) | {f"{n}:reverse" for n, e in rel.items() if "reverse" in e}
+
     def pick(self, options: list[str], rng: np.random.Generator) -> str:
         return options[int(rng.integers(len(options)))]
 
-    def template(self, family: str, rng: np.random.Generator) -> str:
-        return self.pick(self.data[family], rng)
+    def template(self, *path: str, rng: np.random.Generator) -> str:
+        node: Any = self.data
+        for key in path:
+            node = node[key]
+        return self.pick(node, rng)
 
-    def relation_phrase(self, predicate: str, reverse: bool, rng: np.random.Generator) -> str:
+    def relation_phrase(self, predicate: str, reverse: bool, rng: np.random.Generator, side: str = "front") -> str:
         entry = self.data["relations"][predicate]
-        return self.pick(entry["reverse" if reverse else "forward"], rng)
+        return self.pick(entry["reverse" if reverse else "forward"], rng).format(side=side)
 
     def comparative(self, predicate: str, rng: np.random.Generator) -> str:
         return self.pick(self.data["comparatives"][predicate], rng)
 
-    def describe(self, ref: Ref, rng: np.random.Generator) -> tuple[str, dict[Ref, str]]:
-        """Words for a description and for every anchor inside it."""
-        texts: dict[Ref, str] = {}
-        return self._describe(ref, rng, texts), texts
+    def plural(self, name: str) -> str:
+        special = self.data["plurals"].get(name)
+        if special:
+            return special
+        return name + ("es" if name.endswith(("s", "x", "ch", "sh")) else "s")
 
-    def _describe(self, ref: Ref, rng: np.random.Generator, texts: dict[Ref, str]) -> str:
+    def describe(self, ref: Ref, rng: np.random.Generator, view: ViewFacts | None = None) -> tuple[str, dict[Ref, str]]:
+        """Words for a description and for every anchor inside it. ``view`` supplies anchors' side names."""
+        texts: dict[Ref, str] = {}
+        return self._describe(ref, rng, texts, view), texts
+
+    def clauses(self, ref: Ref, rng: np.random.Generator, view: ViewFacts | None,
+                texts: dict[Ref, str]) -> str:
+        """Just the relation clauses of a description ("to the left of the mug and near the bowl")."""
+        return " and ".join(self._relation(r, rng, texts, view) for r in ref.relations)
+
+    def _describe(self, ref: Ref, rng, texts: dict[Ref, str], view) -> str:
         noun = f"{ref.color} {ref.name}" if ref.color else ref.name
         text = self._ordinal(ref.ordinal, noun, rng) if ref.ordinal else f"the {noun}"
         if ref.relations:
-            clauses = [self._relation(r, rng, texts) for r in ref.relations]
             joiner = " that is " if rng.random() < 0.4 else " "
-            text = text + joiner + " and ".join(clauses)
+            text = text + joiner + self.clauses(ref, rng, view, texts)
         texts[ref] = text
         return text
 
-    def _relation(self, rel: Relation, rng: np.random.Generator, texts: dict[Ref, str]) -> str:
-        anchors = [self._describe(a, rng, texts) for a in rel.anchors]
-        phrase = self.relation_phrase(rel.predicate, rel.reverse, rng)
-        return f"{phrase} {' and '.join(anchors)}"
+    def _relation(self, rel: Relation, rng, texts: dict[Ref, str], view) -> str:
+        anchors = [self._describe(a, rng, texts, view) for a in rel.anchors]
+        side = view.objects[rel.anchors[0].object_id].front_side if view and rel.anchors else "front"
+        phrase = self.relation_phrase(rel.predicate, rel.reverse, rng, side=side)
+        return f"{phrase} {' and '.join(anchors)}" if anchors else phrase
 
-    def _ordinal(self, o: Ordinal, noun: str, rng: np.random.Generator) -> str:
+    def _ordinal(self, o: Ordinal, noun: str, rng) -> str:
         forms = self.data["ordinals"][o.axis][o.end]
         if o.rank == 1:
             return self.pick(forms["first"], rng).format(noun=noun)

@@ -2,23 +2,27 @@
 
 A program is a list of nodes (plain dicts, so they are stored as they are). Each
 node names an operation from ``OPS``, its arguments, and ``inputs``: indices of
-earlier nodes whose values it consumes. Executing a program gives every node a
-value; the last node's value is the answer. Any near-tie (an undecided predicate,
-an ordinal whose neighbours are too close) makes the whole program ambiguous,
-so no stored answer ever rests on one.
+earlier nodes whose values it consumes. A node may name the ``view`` it reads
+("self", the record's own view, by default; "other" for the first image of a
+multi-view question). Executing a program gives every node a value; the last
+node's value is the answer. Any near-tie (an undecided predicate, an ordinal
+whose neighbours are too close) makes the whole program ambiguous, so no stored
+answer ever rests on one.
 """
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..relations import PREDICATES, ViewFacts
-from ..relations.directional import MIN_MARGIN_M, DEPTH_MARGIN_M
+from ..relations import PREDICATES, Quantity, ViewFacts
+from ..relations.directional import DEPTH_MARGIN_M, MIN_MARGIN_M
+from ..relations.free_space import Constraint, solve
 
 Node = dict[str, Any]
-Value = Any  # list[int] (a set of object ids, sorted), int (one object) or bool
+Value = Any  # list[int] (object ids), int (one object), bool, str, float or [x, y]
+Views = Mapping[str, ViewFacts]
 
 
 class ProgramError(Exception):
@@ -26,11 +30,14 @@ class ProgramError(Exception):
 
 
 OPS: dict[str, Callable[..., Value]] = {}
+SCENE_OPS: set[str] = set()  # operations that read every view (passed as the node's "_views")
 
 
-def op(name: str):
+def op(name: str, reads_all_views: bool = False):
     def register(fn: Callable[..., Value]) -> Callable[..., Value]:
         OPS[name] = fn
+        if reads_all_views:
+            SCENE_OPS.add(name)
         return fn
 
     return register
@@ -44,27 +51,32 @@ def _scene(view: ViewFacts, node: Node) -> list[int]:
 
 @op("filter")
 def _filter(view: ViewFacts, node: Node, ids: list[int]) -> list[int]:
-    """Objects of the node's category (and colour, when given). Fails if a barely visible object matches."""
-    out = [i for i in ids if view.objects[i].category == node["category"]
+    """Objects of the node's category and colour (either may be None: any). Fails on a barely visible match."""
+    out = [i for i in ids if node.get("category") in (None, view.objects[i].category)
            and node.get("color") in (None, view.objects[i].color)]
     if any(view.objects[i].status != "visible" for i in out):
-        raise ProgramError(f"a barely visible {node['category']} makes the description unsafe")
+        raise ProgramError(f"a barely visible {node.get('category') or 'object'} makes the description unsafe")
     return out
+
+
+def _verdict(view: ViewFacts, name: str, ids: list[int]) -> bool:
+    verdict = PREDICATES[name](view, *(view.objects[i] for i in ids))
+    if verdict is None:
+        raise ProgramError(f"{name} is undecided for objects {ids}")
+    return verdict
 
 
 @op("relate")
 def _relate(view: ViewFacts, node: Node, ids: list[int], *anchors: int) -> list[int]:
-    """Objects for which the predicate holds against the anchors (subject first, or last when reversed)."""
-    pred = PREDICATES[node["predicate"]]
+    """Objects for which the predicate holds against the anchors (subject first, or last when reversed).
+
+    With no anchors it is a unary predicate of the object (at the table's edge...)."""
     kept = []
     for i in ids:
         if i in anchors:
             continue
-        args = [i, *anchors] if not node.get("reverse") else [*anchors, i]
-        verdict = pred(view, *(view.objects[a] for a in args))
-        if verdict is None:
-            raise ProgramError(f"{node['predicate']} is undecided for object {i}")
-        if verdict:
+        args = [*anchors, i] if node.get("reverse") else [i, *anchors]
+        if _verdict(view, node["predicate"], args):
             kept.append(i)
     return kept
 
@@ -97,7 +109,9 @@ def _ordinal(view: ViewFacts, node: Node, ids: list[int]) -> int:
 @op("unique")
 def _unique(view: ViewFacts, node: Node, ids: list[int] | int) -> int:
     """The one object a description picks; anything else is not a valid referring expression."""
-    if isinstance(ids, int):
+    if isinstance(ids, int):  # an object found in another view: it must be seen in this one
+        if view.objects[ids].status != "visible":
+            raise ProgramError(f"object {ids} is not clearly visible in this view")
         return ids
     if len(ids) != 1:
         raise ProgramError(f"description matches {len(ids)} objects")
@@ -107,30 +121,89 @@ def _unique(view: ViewFacts, node: Node, ids: list[int] | int) -> int:
 @op("query")
 def _query(view: ViewFacts, node: Node, *objects: int) -> bool:
     """Truth of a predicate over unique objects (yes/no questions)."""
-    verdict = PREDICATES[node["predicate"]](view, *(view.objects[i] for i in objects))
-    if verdict is None:
-        raise ProgramError(f"{node['predicate']} is undecided")
-    return verdict
+    return _verdict(view, node["predicate"], list(objects))
 
 
 @op("pick")
 def _pick(view: ViewFacts, node: Node, a: int, b: int) -> int:
     """Of two unique objects, the one the predicate holds for against the other ("which is further left")."""
-    pred = PREDICATES[node["predicate"]]
-    forward, backward = pred(view, view.objects[a], view.objects[b]), pred(view, view.objects[b], view.objects[a])
-    if forward and not backward:
-        return a
-    if backward and not forward:
-        return b
-    raise ProgramError(f"{node['predicate']} does not separate objects {a} and {b}")
+    forward, backward = _verdict(view, node["predicate"], [a, b]), _verdict(view, node["predicate"], [b, a])
+    if forward == backward:
+        raise ProgramError(f"{node['predicate']} does not separate objects {a} and {b}")
+    return a if forward else b
 
 
-def execute(program: list[Node], view: ViewFacts, skip: int | None = None) -> list[Value]:
+@op("count")
+def _count(view: ViewFacts, node: Node, ids: list[int]) -> int:
+    """How many objects a filter matched (the filter already refuses barely visible matches)."""
+    return len(ids)
+
+
+QUANTITIES: dict[str, Callable[..., Quantity | None]] = {
+    "depth": lambda v, o: Quantity(o.depth_m, "m") if np.isfinite(o.depth_m) else None,
+    "height": lambda v, o: Quantity(o.height_m, "m"),
+    "width": lambda v, o: Quantity(o.extent_along(v.right_axis), "m"),
+}
+
+
+@op("measure")
+def _measure(view: ViewFacts, node: Node, *objects: int) -> float:
+    """A metric quantity of unique objects: a measure predicate, or depth / height / width of one object."""
+    name = node["quantity"]
+    facts = [view.objects[i] for i in objects]
+    q = QUANTITIES[name](view, *facts) if name in QUANTITIES else PREDICATES[name](view, *facts)
+    if q is None:
+        raise ProgramError(f"{name} cannot be measured here")
+    return round(q.value, 4)
+
+
+@op("free_space")
+def _free_space(view: ViewFacts, node: Node, *anchors: int) -> list[float]:
+    """A free point meeting the node's constraints; each constraint names its anchors by input position."""
+    constraints = tuple(
+        Constraint(c["kind"], tuple(anchors[k] for k in c["anchors"]), c.get("direction"), c.get("offset_m"))
+        for c in node["constraints"]
+    )
+    answer = solve(view, constraints)
+    if answer is None:
+        raise ProgramError("no free space meets the constraints")
+    return list(answer.point)
+
+
+@op("mark")
+def _mark(view: ViewFacts, node: Node, target: int) -> str:
+    """The label of the drawn mark around the object (visual choice)."""
+    labels = [m["label"] for m in node["marks"] if m["object_id"] == target]
+    if len(labels) != 1:
+        raise ProgramError("the object carries no mark")
+    return labels[0]
+
+
+@op("camera_move", reads_all_views=True)
+def _camera_move(view: ViewFacts, node: Node) -> str:
+    """Which way the camera went from the other view to this one: "left"/"right" along the other
+    camera's ground-projected right axis (margin 10 cm), or the turn "left"/"right" (margin 10 deg)."""
+    first, second = node["_views"]["other"], node["_views"]["self"]
+    if node["motion"] == "shift":
+        shift = float((second.T_world_cam[:3, 3] - first.T_world_cam[:3, 3]) @ first.right_axis)
+        margin = 0.10
+    else:
+        f1, f2 = first.forward_axis, second.forward_axis
+        shift = float(np.degrees(np.arctan2(f1[0] * f2[1] - f1[1] * f2[0], f1 @ f2))) * -1.0
+        margin = 10.0
+    if abs(shift) <= margin:
+        raise ProgramError("the camera barely moved that way")
+    return "right" if shift > 0 else "left"
+
+
+def execute(program: list[Node], views: ViewFacts | Views, skip: int | None = None) -> list[Value]:
     """Values of every node, in order. Raises ProgramError on ambiguity.
 
-    ``skip`` names a node to bypass (its value becomes its first input's), which
-    is how the degeneracy test removes one relation at a time.
+    ``views`` is one view, or a mapping of view names ("self", "other") for
+    multi-view programs. ``skip`` names a node to bypass (its value becomes its
+    first input's), which is how the degeneracy test removes one relation at a time.
     """
+    named = {"self": views} if isinstance(views, ViewFacts) else dict(views)
     values: list[Value] = []
     for k, node in enumerate(program):
         inputs = [values[i] for i in node.get("inputs", [])]
@@ -140,33 +213,41 @@ def execute(program: list[Node], view: ViewFacts, skip: int | None = None) -> li
         fn = OPS.get(node["op"])
         if fn is None:
             raise ProgramError(f"unknown operation {node['op']!r}")
-        values.append(fn(view, node, *inputs))
+        view = named.get(node.get("view", "self"))
+        if view is None:
+            raise ProgramError(f"program reads view {node.get('view')!r}, which was not given")
+        values.append(fn(view, {**node, "_views": named} if node["op"] in SCENE_OPS else node, *inputs))
     return values
 
 
-def answer(program: list[Node], view: ViewFacts) -> Value:
-    return execute(program, view)[-1]
+def answer(program: list[Node], views: ViewFacts | Views) -> Value:
+    return execute(program, views)[-1]
 
 
 def count_steps(program: list[Node]) -> int:
     """RefSpatial-Bench's step count: anchor objects plus the relation phrases tied to them.
 
     The viewer-frame ordinals and the target's own category and colour do not
-    count; a description without anchors is one step (locating the target).
+    count; "on" (on top of an anchor) adds no phrase; a description without
+    anchors is one step (locating the target).
     """
-    relations = [n for n in program if n["op"] in ("relate", "query", "pick")]
-    anchors = {i for n in relations for i in n["inputs"][1:]}
-    return max(1, len(anchors) + len(relations))
+    phrases = [n for n in program if n["op"] in ("relate", "query", "pick")]
+    anchors = {i for n in phrases for i in n["inputs"][1:]}
+    for n in program:
+        if n["op"] == "free_space":
+            anchors.update(n["inputs"])
+            phrases.extend(c for c in n["constraints"] if c["kind"] != "on_top")
+    return max(1, len(anchors) + len(phrases))
 
 
-def is_degenerate(program: list[Node], view: ViewFacts) -> bool:
+def is_degenerate(program: list[Node], views: ViewFacts | Views) -> bool:
     """True if some relation node can be skipped without changing the answer (CLEVR's test)."""
-    target = answer(program, view)
+    target = answer(program, views)
     for k, node in enumerate(program):
         if node["op"] != "relate":
             continue
         try:
-            if execute(program, view, skip=k)[-1] == target:
+            if execute(program, views, skip=k)[-1] == target:
                 return True
         except ProgramError:
             continue
@@ -175,7 +256,5 @@ def is_degenerate(program: list[Node], view: ViewFacts) -> bool:
 
 def with_results(program: list[Node], values: list[Value]) -> list[Node]:
     """Nodes annotated with their values, the form stored in records."""
-    out = []
-    for node, value in zip(program, values):
-        out.append({**node, "result": value if not isinstance(value, np.generic) else value.item()})
-    return out
+    return [{**node, "result": value.item() if isinstance(value, np.generic) else value}
+            for node, value in zip(program, values)]

@@ -12,11 +12,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..relations import ObjectFacts, ViewFacts
+from ..relations import PREDICATES, ObjectFacts, ViewFacts
 from .program import ORDINAL_AXES, Node, ProgramError, execute, is_degenerate
 
-BINARY = ("left_of", "right_of", "in_front_of", "behind", "closer_to_camera")
 MAX_RANK = 3
+COMBOS_TRIED = 60  # random part combinations tried per description; resolving is the costly part
+
+
+def relation_predicates(phrased: set[str], arity: int) -> list[str]:
+    """Relation predicates of the given arity that have phrases (so they can be put in words)."""
+    return sorted(n for n, p in PREDICATES.items() if p.kind == "relation" and p.arity == arity and n in phrased)
 
 
 @dataclass(frozen=True)
@@ -29,7 +34,7 @@ class Ordinal:
 @dataclass(frozen=True)
 class Relation:
     predicate: str
-    anchors: tuple["Ref", ...]
+    anchors: tuple["Ref", ...]  # none for unary predicates (at the table's edge)
     reverse: bool = False  # the anchor is the predicate's subject ("farther from the camera than")
 
     @property
@@ -41,7 +46,7 @@ class Relation:
 @dataclass(frozen=True)
 class Ref:
     object_id: int  # what the description is meant to pick (checked, never trusted)
-    category: str
+    category: str | None  # None: any object ("the object left of the mug")
     name: str
     color: str | None = None
     ordinal: Ordinal | None = None
@@ -52,28 +57,32 @@ class Ref:
         return max(1, sum(r.steps for r in self.relations))
 
 
-def compile_ref(ref: Ref, program: list[Node], texts: dict[Ref, str] | None = None) -> int:
+def compile_ref(ref: Ref, program: list[Node], texts: dict[Ref, str] | None = None, view: str = "self") -> int:
     """Append the nodes that resolve ``ref``; returns the index of its ``unique`` node.
 
     ``texts`` (from ``Phrasebook.describe``) labels each unique node with the words
     that name it, which reasoning traces and audits quote.
     """
-    idx = _add(program, {"op": "scene"})
-    idx = _add(program, {"op": "filter", "inputs": [idx], "category": ref.category, "color": ref.color})
+    idx = _add(program, {"op": "scene", "view": view})
+    idx = _add(program, {"op": "filter", "inputs": [idx], "category": ref.category, "color": ref.color,
+                         "view": view})
     for rel in ref.relations:
-        anchors = [compile_ref(a, program, texts) for a in rel.anchors]
+        anchors = [compile_ref(a, program, texts, view) for a in rel.anchors]
         idx = _add(program, {"op": "relate", "inputs": [idx, *anchors], "predicate": rel.predicate,
-                             "reverse": rel.reverse})
+                             "reverse": rel.reverse, "view": view})
     if ref.ordinal:
         o = ref.ordinal
-        idx = _add(program, {"op": "ordinal", "inputs": [idx], "axis": o.axis, "end": o.end, "rank": o.rank})
-    node: Node = {"op": "unique", "inputs": [idx]}
+        idx = _add(program, {"op": "ordinal", "inputs": [idx], "axis": o.axis, "end": o.end, "rank": o.rank,
+                             "view": view})
+    node: Node = {"op": "unique", "inputs": [idx], "view": view}
     if texts is not None:
         node["text"] = texts[ref]
     return _add(program, node)
 
 
 def _add(program: list[Node], node: Node) -> int:
+    if node.get("view") == "self":
+        del node["view"]  # the default; keeps stored programs short
     program.append(node)
     return len(program) - 1
 
@@ -89,7 +98,14 @@ def resolves(ref: Ref, view: ViewFacts) -> bool:
 
 
 def simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
-    """Anchor-free descriptions of the target that resolve, most preferred first."""
+    """Anchor-free descriptions of the target that resolve, most preferred first (memoised per view)."""
+    key = ("simple_refs", target.object_id)
+    if key not in view.cache:
+        view.cache[key] = _simple_refs(view, target)
+    return view.cache[key]
+
+
+def _simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
     base = Ref(target.object_id, target.category, target.name)
     coloured = Ref(target.object_id, target.category, target.name, target.color)
     out = [r for r in (base, coloured) if resolves(r, view)]
@@ -113,7 +129,7 @@ def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
         if not np.all(np.isfinite(coords)):
             continue
         ascending = sorted(ids, key=lambda i: key(view.objects[i]))
-        high_end = _other_end(axis, low_end)
+        high_end = {"left": "right", "front": "back", "near": "far"}[low_end]
         for end, order in ((low_end, ascending), (high_end, ascending[::-1])):
             rank = order.index(target.object_id) + 1
             if rank <= MAX_RANK:
@@ -122,67 +138,76 @@ def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
     return [o for *_, o in sorted(options, key=lambda t: (t[0], t[1]))]
 
 
-def _other_end(axis: str, low_end: str) -> str:
-    return {"left": "right", "front": "back", "near": "far"}[low_end]
+# Part kinds and their step costs: unary 1 (phrase), binary 2 (anchor + phrase), between 3.
+COMBOS = {1: (("unary",),), 2: (("binary",),), 3: (("between",), ("binary", "unary")),
+          4: (("binary", "binary"),), 5: (("between", "binary"), ("binary", "binary", "unary"))}
 
 
-def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.random.Generator) -> list[Ref]:
-    """Descriptions with anchors whose step count is ``steps`` (2 to 5), in random order.
+def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.random.Generator,
+                  phrased: set[str], any_category: bool = False) -> list[Ref]:
+    """Descriptions with relations whose step count is ``steps`` (1 to 5), in random order.
 
-    Parts: a binary relation costs 2 steps (anchor + phrase), ``between`` costs 3
-    (two anchors + phrase). 2 = binary, 3 = between, 4 = two binaries, 5 = between + binary.
+    ``phrased`` names the predicates the phrasebook can word. With ``any_category``
+    the head is "the object" (identify-from-relations questions).
     """
-    anchors = {o.object_id: simple_refs(view, o)[:1] for o in view.askable() if o.object_id != target.object_id}
-    anchors = {k: v[0] for k, v in anchors.items() if v}
-    binaries = _binary_parts(view, target, anchors)
-    betweens = _between_parts(view, target, anchors) if steps in (3, 5) else []
-    combos: list[tuple[Relation, ...]] = {
-        2: [(b,) for b in binaries],
-        3: [(b,) for b in betweens],
-        4: [(a, b) for i, a in enumerate(binaries) for b in binaries[i + 1:] if _distinct(a, b)],
-        5: [(a, b) for a in betweens for b in binaries if _distinct(a, b)],
-    }.get(steps, [])
-    order = rng.permutation(len(combos))
-    out = []
-    for k in order:
-        rels = combos[int(k)]
-        for color in (None, target.color):
-            ref = Ref(target.object_id, target.category, target.name, color, relations=rels)
+    anchors = {o.object_id: r[0] for o in view.askable() if o.object_id != target.object_id
+               and (r := simple_refs(view, o)[:1])}
+    parts = {
+        "unary": [Relation(n, ()) for n in relation_predicates(phrased, 1) if _holds(view, n, [target])],
+        "binary": _binary_parts(view, target, anchors, phrased),
+        "between": _between_parts(view, target, anchors) if "between" in phrased else [],
+    }
+    heads = [None] if any_category else [None, target.color]
+    out: list[Ref] = []
+    for rels in _combinations(parts, COMBOS.get(steps, ()), rng):
+        for color in heads:
+            category = None if any_category else target.category
+            ref = Ref(target.object_id, category, "object" if any_category else target.name, color, relations=rels)
             if resolves(ref, view):
                 out.append(ref)
                 break
-        if len(out) >= 4:  # enough to choose from; resolving is the costly part
+        if len(out) >= 2:  # enough to choose from; resolving is the costly part
             break
     return out
 
 
-def _distinct(a: Relation, b: Relation) -> bool:
-    ids_a = {x.object_id for x in a.anchors}
-    return not ids_a & {x.object_id for x in b.anchors} and a.predicate != b.predicate
+def _combinations(parts: dict[str, list[Relation]], shapes, rng: np.random.Generator):
+    """Random combinations of parts with the wanted shapes, distinct anchors and predicates."""
+    shapes = [s for s in shapes if all(parts[k] for k in s)]
+    for _ in range(COMBOS_TRIED if shapes else 0):
+        shape = shapes[int(rng.integers(len(shapes)))]
+        # Pick a predicate first, then an instance, so common predicates do not crowd out rare ones.
+        rels = tuple(_pick_part(parts[kind], rng) for kind in shape)
+        anchor_ids = [a.object_id for r in rels for a in r.anchors]
+        if len(set(anchor_ids)) == len(anchor_ids) and len({r.predicate for r in rels}) == len(rels):
+            yield rels
 
 
-def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref]) -> list[Relation]:
-    from ..relations import PREDICATES
+def _pick_part(options: list[Relation], rng: np.random.Generator) -> Relation:
+    names = sorted({r.predicate for r in options})
+    name = names[int(rng.integers(len(names)))]
+    same = [r for r in options if r.predicate == name]
+    return same[int(rng.integers(len(same)))]
 
+
+def _holds(view: ViewFacts, name: str, objs: list[ObjectFacts]) -> bool:
+    return PREDICATES[name](view, *objs) is True
+
+
+def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref], phrased: set[str]):
     parts = []
-    for aid, ref in anchors.items():
-        anchor = view.objects[aid]
-        for name in BINARY:
-            pred = PREDICATES[name]
-            if pred(view, target, anchor) is True:
+    for name in relation_predicates(phrased, 2):
+        pred = PREDICATES[name]
+        for aid, ref in anchors.items():
+            anchor = view.objects[aid]
+            if _holds(view, name, [target, anchor]):
                 parts.append(Relation(name, (ref,)))
-            if pred.inverse is None and pred(view, anchor, target) is True:
+            if pred.inverse is None and f"{name}:reverse" in phrased and _holds(view, name, [anchor, target]):
                 parts.append(Relation(name, (ref,), reverse=True))
     return parts
 
 
 def _between_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref]) -> list[Relation]:
-    from ..relations import PREDICATES
-
     ids = sorted(anchors)
-    parts = []
-    for i, b in enumerate(ids):
-        for c in ids[i + 1:]:
-            if PREDICATES["between"](view, target, view.objects[b], view.objects[c]) is True:
-                parts.append(Relation("between", (anchors[b], anchors[c])))
-    return parts
+    return [Relation("between", (anchors[b], anchors[c])) for i, b in enumerate(ids) for c in ids[i + 1:]
+            if _holds(view, "between", [target, view.objects[b], view.objects[c]])]

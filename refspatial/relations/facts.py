@@ -11,7 +11,7 @@ others are not asked about.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -84,6 +84,8 @@ class ViewFacts:
     table_size_m: tuple[float, float] = (0.0, 0.0)  # table extents along world x, y (centred at the origin)
     table_top_z_m: float = 0.0
     contacts: frozenset[tuple[int, int]] = frozenset()  # object pairs touching, smaller id first, -1 = table
+    # Memo of derived values (predicate verdicts, descriptions): question search asks the same things often.
+    cache: dict = field(default_factory=dict, repr=False)
 
     @property
     def width(self) -> int:

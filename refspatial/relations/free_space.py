@@ -105,7 +105,7 @@ def solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool = T
         return None
     mask = None
     if with_mask:
-        mask = _image_mask(v, constraints, support, polygon, z)
+        mask = _image_mask(v, constraints, support, polygon, z, free)
         if not _on_mask(v, mask, point):
             snapped = _snap(v, mask, uv[0])
             if snapped is None:
@@ -212,21 +212,34 @@ def _visible(v: ViewFacts, points_world: np.ndarray) -> np.ndarray:
     return out
 
 
-def _image_mask(v: ViewFacts, constraints, support: int, polygon: np.ndarray, z: float) -> np.ndarray:
-    """Pixels whose ray meets the platform plane at a valid free point that is not occluded."""
-    rows, cols = np.mgrid[0 : v.height, 0 : v.width]
+def _image_mask(v: ViewFacts, constraints, support: int, polygon: np.ndarray, z: float,
+                cells: np.ndarray) -> np.ndarray:
+    """Pixels whose ray meets the platform plane at a valid free point that is not occluded.
+
+    Only the image window covering the free cells (grown by a cell) is evaluated.
+    """
+    corners = (cells[:, None, :] + CELL_M * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])).reshape(-1, 2)
+    uv, depth = project(np.column_stack([corners, np.full(len(corners), z)]), v.K, v.T_world_cam)
+    mask = np.zeros((v.height, v.width), dtype=bool)
+    uv = uv[depth > 0]
+    if len(uv) == 0:
+        return mask
+    c0, r0 = np.clip(np.floor(uv.min(0)).astype(int) - 1, 0, [v.width, v.height])
+    c1, r1 = np.clip(np.ceil(uv.max(0)).astype(int) + 1, 0, [v.width, v.height])
+    rows, cols = np.mgrid[r0:r1, c0:c1]
     rays = np.stack([cols + 0.5, rows + 0.5, np.ones_like(cols)], axis=-1).reshape(-1, 3) @ np.linalg.inv(v.K).T
     R, t = v.T_world_cam[:3, :3], v.T_world_cam[:3, 3]
     dirs = rays @ R.T
     with np.errstate(divide="ignore", invalid="ignore"):
         s = (z - t[2]) / dirs[:, 2]  # optical-axis depth of the plane hit (rays have z = 1)
     hit = t[:2] + dirs[:, :2] * s[:, None]
-    ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m.reshape(-1) - s) <= OCCLUSION_M)
+    ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1].reshape(-1) - s) <= OCCLUSION_M)
     idx = np.nonzero(ok)[0]
     good = _in_regions(v, constraints, hit[idx]) & _free(v, hit[idx], support, polygon)
-    mask = np.zeros(v.width * v.height, dtype=bool)
-    mask[idx[good]] = True
-    return mask.reshape(v.height, v.width)
+    window = np.zeros(len(ok), dtype=bool)
+    window[idx[good]] = True
+    mask[r0:r1, c0:c1] = window.reshape(r1 - r0, c1 - c0)
+    return mask
 
 
 def _snap(v: ViewFacts, mask: np.ndarray, uv: np.ndarray) -> tuple[float, float] | None:

@@ -10,13 +10,14 @@ from .registry import Verdict, predicate
 FACING_DEG = 45.0  # within this of B's front: on its facing side (or back side, mirrored)
 NOT_FACING_DEG = 75.0  # beyond this from the front direction: clearly not on the facing side
 MIN_FRONT_TILT = 0.7  # |horizontal part| of B's front: fronts pointing up/down have no side
+NO_FRONT = "none"  # catalogue side name of objects without a semantic front (apples, bowls...)
 EDGE_M = (0.10, 0.18)  # at the edge: within 10 cm of a table edge; clearly not beyond 18 cm
 CORNER_M = (0.18, 0.28)  # at a corner: within 18 cm of both edges at a corner; not when either > 28 cm
 
 
 def _side_angle(a: ObjectFacts, b: ObjectFacts) -> float | None:
     """Angle in degrees between B's horizontal front and the direction from B to A on the ground."""
-    if b.front_world is None:
+    if b.front_world is None or b.front_side == NO_FRONT:
         return None
     front = np.asarray(b.front_world[:2], dtype=float)
     if np.linalg.norm(front) < MIN_FRONT_TILT:
@@ -44,7 +45,7 @@ def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
     The angle between B's ground-projected front vector and the direction from B
     to A: True within 45 degrees, False beyond 75, undecided between; undecided
-    when B's front points mostly up or down.
+    when B's front points mostly up or down, or B has no semantic front (side "none").
     """
     return _within(_side_angle(a, b), FACING_DEG, NOT_FACING_DEG)
 

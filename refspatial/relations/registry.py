@@ -41,7 +41,12 @@ class Predicate:
             raise TypeError(f"{self.name} relates {self.arity} objects, got {len(objects)}")
         if len({o.object_id for o in objects}) != len(objects):
             return None  # an object is never related to itself
-        return self.fn(view, *objects, **options)
+        if options:
+            return self.fn(view, *objects, **options)
+        key = (self.name, *(o.object_id for o in objects))
+        if key not in view.cache:
+            view.cache[key] = self.fn(view, *objects)
+        return view.cache[key]
 
 
 PREDICATES: dict[str, Predicate] = {}

@@ -1,0 +1,149 @@
+"""What every question family shares: answer points, reasoning traces and the QA record."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import cv2
+import numpy as np
+
+from ..relations import PREDICATES, ViewFacts
+from .phrases import Phrasebook
+from .program import Node, count_steps, with_results
+
+QA = dict[str, Any]
+POINT_TRIES = 20
+ORIENTATION_PREDICATES = ("on_facing_side", "on_back_side")
+SIZE_MEASURES = {"taller_than": "height", "shorter_than": "height", "wider_than": "width",
+                 "thinner_than": "width", "bigger_than": "size", "smaller_than": "size"}
+
+
+def weighted(weights: dict, rng: np.random.Generator) -> Any:
+    keys = list(weights)
+    p = np.array([weights[k] for k in keys], dtype=float)
+    return keys[int(rng.choice(len(keys), p=p / p.sum()))]
+
+
+def pick_target(view: ViewFacts, rng: np.random.Generator):
+    """An askable object, favouring those away from the image centre.
+
+    The camera aims at the middle of the scene, so uniform targets would pile
+    answer points up in the central image cells.
+    """
+    objs = view.askable()
+    centre = np.array([view.width / 2, view.height / 2])
+    diag = float(np.hypot(view.width, view.height))
+    w = np.array([0.3 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs])
+    return objs[int(rng.choice(len(objs), p=w / w.sum()))]
+
+
+def erosion_px(view: ViewFacts) -> int:
+    """About 0.5 % of the short image side, so points keep off mask borders at any resolution."""
+    return max(1, round(min(view.width, view.height) / 180))
+
+
+def sample_mask_points(mask: np.ndarray, n: int, rng: np.random.Generator, erode: int) -> list[list[float]] | None:
+    """n normalised (x, y) points on a mask, eroded first; each rounded point is checked on the mask.
+
+    A point (x, y) stands for pixel column floor(x * W), row floor(y * H).
+    """
+    h, w = mask.shape
+    m = mask.astype(np.uint8)
+    rows, cols = np.nonzero(cv2.erode(m, np.ones((3, 3), np.uint8), iterations=erode))
+    if len(rows) == 0:
+        return None
+    points: list[list[float]] = []
+    for _ in range(n * POINT_TRIES):
+        k = int(rng.integers(len(rows)))
+        x, y = round((cols[k] + 0.5) / w, 3), round((rows[k] + 0.5) / h, 3)
+        if m[min(int(y * h), h - 1), min(int(x * w), w - 1)]:
+            points.append([x, y])
+            if len(points) == n:
+                return points
+    return None
+
+
+def sample_points(view: ViewFacts, object_id: int, n: int, rng: np.random.Generator) -> list[list[float]] | None:
+    """n points on the object's eroded visible mask."""
+    return sample_mask_points(view.seg == object_id, n, rng, erosion_px(view))
+
+
+def format_points(points: list[list[float]]) -> str:
+    return "[" + ", ".join(f"({x:.3f}, {y:.3f})" for x, y in points) + "]"
+
+
+def trace(program: list[Node], values: list, views: dict[str, ViewFacts], rng) -> list[dict] | None:
+    """Reasoning steps in RefSpatial's format: where each named object is, and the orientations and
+    sizes the relations compare, in the order the program uses them."""
+    steps: list[dict] = []
+    texts = {k: n.get("text", "") for k, n in enumerate(program) if n["op"] == "unique"}
+    for k, (node, value) in enumerate(zip(program, values)):
+        view = views[node.get("view", "self")]
+        if node["op"] == "unique":
+            point = sample_points(view, value, 1, rng)
+            if point is None:
+                return None
+            steps.append(_in_view(node, {"kind": "Position", "text": node.get("text", ""), "object_id": int(value),
+                                         "point": point[0]}))
+        elif node["op"] == "relate" and node["predicate"] in ORIENTATION_PREDICATES:
+            for a in node["inputs"][1:]:
+                front = view.T_world_cam[:3, :3].T @ view.objects[values[a]].front_world
+                steps.append(_in_view(node, {"kind": "Orientation", "text": texts[a], "object_id": int(values[a]),
+                                             "vector": [round(float(c), 3) for c in front / np.linalg.norm(front)]}))
+        elif node["op"] == "relate" and node["predicate"] in SIZE_MEASURES:
+            for a in node["inputs"][1:]:
+                steps.append(_in_view(node, _size_step(view, texts[a], values[a], SIZE_MEASURES[node["predicate"]])))
+    return steps
+
+
+def _in_view(node: Node, step: dict) -> dict:
+    """Steps read in the other image of a multi-view question say so."""
+    if node.get("view", "self") != "self":
+        step["view"] = node["view"]
+    return step
+
+
+def _size_step(view: ViewFacts, text: str, object_id: int, measure: str) -> dict:
+    o = view.objects[object_id]
+    value = {"height": o.height_m, "width": o.extent_along(view.right_axis), "size": o.volume_m3 ** (1 / 3)}[measure]
+    return {"kind": "Size", "text": text, "object_id": int(object_id), "measure": measure, "value": round(value, 3)}
+
+
+def trace_text(steps: list[dict]) -> str:
+    lines = []
+    for s in steps:
+        if s["kind"] == "Position":
+            lines.append(f"[Position] [{s['text']}]: {format_points([s['point']])}")
+        elif s["kind"] == "Orientation":
+            lines.append(f"[Orientation] [{s['text']}]: ({s['vector'][0]:.3f}, {s['vector'][1]:.3f}, {s['vector'][2]:.3f})")
+        else:
+            lines.append(f"[Size] [{s['text']}]: {s['value']:.2f}")
+    return "\n".join(lines)
+
+
+def make_qa(family: str, kind: str, prompt: str, answer: str, program: list[Node], values: list,
+            views: dict[str, ViewFacts], rng, points: list[list[float]] | None = None,
+            target: int | None = None, ref: str | None = None, **extra: Any) -> QA | None:
+    """The stored QA record; point questions get RoboRefer's suffix and a reasoning trace."""
+    steps = trace(program, values, views, rng) if points else []
+    if steps is None:
+        return None
+    qa: QA = {
+        "family": family,
+        "kind": kind,
+        "prompt": prompt,
+        "question": f"{prompt} {Phrasebook.get().point_suffix}" if points else prompt,
+        "answer": answer,
+        "answer_points": points or [],
+        "target_id": None if target is None else int(target),
+        "ref": ref,
+        "steps": with_results(program, values),
+        "num_steps": count_steps(program),
+        "predicates": sorted({n["predicate"] for n in program if "predicate" in n}
+                             | {n["quantity"] for n in program if n["op"] == "measure" and n["quantity"] in PREDICATES}
+                             | ({"free_space"} if any(n["op"] == "free_space" for n in program) else set())),
+        "reasoning_steps": steps,
+        "reasoning": f"<think>{trace_text(steps)}</think><answer>{answer}</answer>" if points else None,
+    }
+    qa.update(extra)
+    return qa

@@ -1,0 +1,74 @@
+"""Location and identify-from-relations: point to (or name) the one object a description picks."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..relations import ViewFacts
+from .common import QA, format_points, make_qa, pick_target, sample_points
+from .phrases import Phrasebook
+from .program import Node, execute
+from .refer import Ref, anchored_refs, compile_ref, simple_refs
+
+
+def describe_target(view: ViewFacts, target, steps: int, rng: np.random.Generator,
+                    any_category: bool = False) -> Ref | None:
+    """A description of the target with the wanted step count, or None."""
+    if steps == 1 and not any_category:
+        refs = simple_refs(view, target)
+        # Mostly the plainest description that works; sometimes a richer one or a unary relation.
+        if not refs or rng.random() < 0.25:
+            refs = refs + anchored_refs(view, target, 1, rng, Phrasebook.get().phrased)
+        elif rng.random() < 0.6:
+            refs = refs[:1]
+    else:
+        refs = anchored_refs(view, target, steps, rng, Phrasebook.get().phrased, any_category)
+    return refs[int(rng.integers(len(refs)))] if refs else None
+
+
+def location(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
+    """Point to the one object a description picks (1 to 5 steps)."""
+    view = views["self"]
+    target = pick_target(view, rng)
+    ref = describe_target(view, target, steps, rng)
+    if ref is None:
+        return None
+    book = Phrasebook.get()
+    text, texts = book.describe(ref, rng, view)
+    program: list[Node] = []
+    compile_ref(ref, program, texts)
+    values = execute(program, view)
+    points = sample_points(view, values[-1], spec["answer_points"], rng)
+    if points is None:
+        return None
+    prompt = book.template("location", rng=rng).format(ref=text)
+    return make_qa("location", "point", prompt, format_points(points), program, values, views, rng,
+                   points=points, target=values[-1], ref=text)
+
+
+def identify(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
+    """Which object satisfies these relations? Answered with its name, or by pointing."""
+    view = views["self"]
+    target = pick_target(view, rng)
+    ref = describe_target(view, target, steps, rng, any_category=True)
+    name_ref = simple_refs(view, target)[:1]
+    if ref is None or not name_ref:
+        return None
+    book = Phrasebook.get()
+    texts: dict[Ref, str] = {}
+    clauses = book.clauses(ref, rng, view, texts)
+    texts[ref] = f"the object {clauses}"
+    program: list[Node] = []
+    compile_ref(ref, program, texts)
+    values = execute(program, view)
+    if rng.random() < 0.5:
+        name, _ = book.describe(name_ref[0], rng, view)
+        prompt = book.template("identify_name", rng=rng).format(clauses=clauses)
+        return make_qa("identify", "name", prompt, name, program, values, views, rng, target=values[-1],
+                       ref=texts[ref], answer_name=name)
+    points = sample_points(view, values[-1], spec["answer_points"], rng)
+    if points is None:
+        return None
+    prompt = book.template("identify_point", rng=rng).format(clauses=clauses)
+    return make_qa("identify", "point", prompt, format_points(points), program, values, views, rng,
+                   points=points, target=values[-1], ref=texts[ref])

@@ -1,0 +1,56 @@
+"""Multi-view questions: two views of one scene ("image 1" = the other view, "image 2" = this one).
+
+The QA lives in the record of image 2 and names image 1's record in ``images``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..relations import ViewFacts
+from .common import QA, format_points, make_qa, pick_target, sample_points
+from .location import describe_target
+from .phrases import Phrasebook
+from .program import Node, ProgramError, execute
+from .refer import compile_ref
+
+
+def multiview(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
+    if "other" not in views:
+        return None
+    return _same_object(views, spec, steps, rng) if rng.random() < 0.6 else _camera_move(views, rng)
+
+
+def _same_object(views, spec: dict, steps: int, rng) -> QA | None:
+    """Point in image 2 to the object a description picks in image 1."""
+    first, second = views["other"], views["self"]
+    target = pick_target(first, rng)
+    if second.objects[target.object_id].status != "visible":
+        return None
+    ref = describe_target(first, target, steps, rng)
+    if ref is None:
+        return None
+    book = Phrasebook.get()
+    text, texts = book.describe(ref, rng, first)
+    program: list[Node] = []
+    u = compile_ref(ref, program, texts, view="other")
+    program.append({"op": "unique", "inputs": [u], "text": text})  # the same object, now located in image 2
+    values = execute(program, views)
+    points = sample_points(second, values[-1], spec["answer_points"], rng)
+    if points is None:
+        return None
+    prompt = book.template("multiview_point", rng=rng).format(ref=text)
+    return make_qa("multiview", "point", prompt, format_points(points), program, values, views, rng,
+                   points=points, target=values[-1], ref=text, images=["other", "self"])
+
+
+def _camera_move(views, rng) -> QA | None:
+    motion = "shift" if rng.random() < 0.5 else "turn"
+    program: list[Node] = [{"op": "camera_move", "motion": motion}]
+    try:
+        values = execute(program, views)
+    except ProgramError:
+        return None
+    prompt = Phrasebook.get().template("camera_move", motion, rng=rng)
+    return make_qa("multiview", f"camera_{motion}", prompt, "(A)" if values[-1] == "left" else "(B)",
+                   program, values, views, rng, images=["other", "self"])

@@ -1,0 +1,114 @@
+"""Placement / vacant space: point to a free spot on a support that meets every constraint."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..annotate import rle_encode
+from ..relations import TABLE, ViewFacts
+from ..relations.free_space import DIRECTIONS, solve
+from .common import QA, erosion_px, format_points, make_qa, sample_mask_points
+from .phrases import Phrasebook
+from .program import Node, ProgramError, execute
+from .refer import compile_ref, simple_refs
+
+OFFSETS_M = (0.05, 0.10, 0.15, 0.20)
+# Constraint shapes per step count (anchors + phrases; "on" adds no phrase).
+SHAPES = {1: (("on_top",),), 2: (("sector",), ("offset",)), 3: (("between",),),
+          4: (("sector", "sector"),), 5: (("between", "sector"),)}
+ANCHORS = {"on_top": 1, "sector": 1, "offset": 1, "between": 2}
+
+
+def placement(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
+    view = views["self"]
+    shapes = SHAPES.get(steps, ())
+    if not shapes:
+        return None
+    shape = shapes[int(rng.integers(len(shapes)))]
+    need = sum(ANCHORS[k] for k in shape)
+    candidates = [o for o in view.askable() if o.support is not None]
+    if "on_top" in shape:
+        candidates = [o for o in candidates if o.is_support]
+    else:
+        candidates = [o for o in candidates if o.support == TABLE]
+    if len(candidates) < need:
+        return None
+    chosen = [candidates[int(i)] for i in rng.choice(len(candidates), size=need, replace=False)]
+    refs = [simple_refs(view, o)[:1] for o in chosen]
+    if not all(refs):
+        return None
+    constraints = _constraints(shape, rng)
+    return _question(views, spec, [r[0] for r in refs], constraints, rng)
+
+
+def _constraints(shape: tuple[str, ...], rng: np.random.Generator) -> list[dict]:
+    out, k = [], 0
+    for kind in shape:
+        c = {"kind": kind, "anchors": list(range(k, k + ANCHORS[kind]))}
+        k += ANCHORS[kind]
+        if kind in ("sector", "offset"):
+            c["direction"] = DIRECTIONS[int(rng.integers(len(DIRECTIONS)))]
+        if kind == "offset":
+            c["offset_m"] = OFFSETS_M[int(rng.integers(len(OFFSETS_M)))]
+        out.append(c)
+    return out
+
+
+def _question(views, spec: dict, refs, constraints: list[dict], rng) -> QA | None:
+    view = views["self"]
+    book = Phrasebook.get()
+    words, texts = [], {}
+    for r in refs:
+        text, t = book.describe(r, rng, view)
+        words.append(text)
+        texts.update(t)
+    program: list[Node] = []
+    anchors = [compile_ref(r, program, texts) for r in refs]
+    program.append({"op": "free_space", "inputs": anchors, "constraints": constraints})
+    try:
+        values = execute(program, view)
+    except ProgramError:
+        return None
+    answer = solve(view, as_constraints(constraints, values, anchors))
+    extra = sample_mask_points(answer.mask, spec["answer_points"] - 1, rng, erosion_px(view)) \
+        if spec["answer_points"] > 1 else []
+    if extra is None:
+        return None
+    points = [values[-1], *extra]
+    region = " and ".join(_region_words(book, c, words, rng) for c in constraints)
+    prompt = book.template("placement", rng=rng).format(region=region)
+    qa = make_qa("placement", "point", prompt, format_points(points), program, values, views, rng,
+                 points=points, ref=f"the free spot {region}", free_mask=rle_encode(answer.mask),
+                 free_area_m2=round(answer.area_m2, 4))
+    if qa is not None:  # the trace's last step is the free spot itself
+        qa["reasoning_steps"].append({"kind": "Position", "text": qa["ref"], "object_id": None, "point": points[0]})
+        qa["reasoning"] = _retrace(qa)
+    return qa
+
+
+def as_constraints(constraints: list[dict], values, anchors: list[int]):
+    from ..relations.free_space import Constraint
+
+    ids = [values[i] for i in anchors]
+    return tuple(Constraint(c["kind"], tuple(ids[k] for k in c["anchors"]), c.get("direction"), c.get("offset_m"))
+                 for c in constraints)
+
+
+def _region_words(book: Phrasebook, c: dict, words: list[str], rng) -> str:
+    regions = book.data["regions"]
+    a = words[c["anchors"][0]]
+    if c["kind"] == "between":
+        return book.pick(regions["between"], rng).format(a=a, b=words[c["anchors"][1]])
+    if c["kind"] == "on_top":
+        return book.pick(regions["on_top"], rng).format(a=a)
+    direction = book.pick(regions["directions"][c["direction"]], rng)
+    if c["kind"] == "sector":
+        return book.pick(regions["sector"], rng).format(dir=direction, a=a)
+    offset = f"{round(c['offset_m'] * 100)} cm"
+    return book.pick(regions["offset"], rng).format(offset=offset, dir=direction, a=a)
+
+
+def _retrace(qa: QA) -> str:
+    from .common import trace_text
+
+    return f"<think>{trace_text(qa['reasoning_steps'])}</think><answer>{qa['answer']}</answer>"

@@ -1,0 +1,77 @@
+"""Quantitative questions: depth, height, width, distance, angle, camera rotation and counts."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..relations import ViewFacts
+from .common import QA, make_qa
+from .phrases import Phrasebook
+from .program import Node, ProgramError, execute
+from .refer import compile_ref, simple_refs
+
+ONE_OBJECT = ("depth", "height", "width", "rotate_horizontal", "rotate_vertical")
+TWO_OBJECTS = ("distance_between", "angle_between")
+KINDS = ONE_OBJECT + TWO_OBJECTS + ("count",)
+
+
+def quantity(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
+    view = views["self"]
+    kind = KINDS[int(rng.integers(len(KINDS)))]
+    if kind == "count":
+        return _count(views, rng)
+    objs = view.askable()
+    n = 2 if kind in TWO_OBJECTS else 1
+    if len(objs) < n:
+        return None
+    group = [objs[int(i)] for i in rng.choice(len(objs), size=n, replace=False)]
+    refs = [simple_refs(view, o)[:1] for o in group]
+    if not all(refs):
+        return None
+    book = Phrasebook.get()
+    words, texts = [], {}
+    for r in refs:
+        text, t = book.describe(r[0], rng, view)
+        words.append(text)
+        texts.update(t)
+    program: list[Node] = []
+    ids = [compile_ref(r[0], program, texts) for r in refs]
+    program.append({"op": "measure", "inputs": ids, "quantity": kind})
+    try:
+        values = execute(program, view)
+    except ProgramError:
+        return None
+    value = float(values[-1])
+    unit = "deg" if kind in ("angle_between", "rotate_horizontal", "rotate_vertical") else "m"
+    prompt = book.template("quantity", kind, rng=rng).format(a=words[0], b=words[-1])
+    return make_qa("quantitative", kind, prompt, _words(kind, value), program, values, views, rng,
+                   answer_value={"value": value, "unit": unit})
+
+
+def _words(kind: str, value: float) -> str:
+    if kind == "rotate_horizontal":
+        return f"{abs(value):.0f} degrees to the {'right' if value > 0 else 'left'}"
+    if kind == "rotate_vertical":
+        return f"{abs(value):.0f} degrees {'up' if value > 0 else 'down'}"
+    if kind == "angle_between":
+        return f"{value:.0f} degrees"
+    return f"{value:.2f} m" if value >= 1.0 else f"{value * 100:.0f} cm"
+
+
+def _count(views, rng) -> QA | None:
+    view = views["self"]
+    categories = sorted({o.category for o in view.objects if o.status != "hidden"})
+    if not categories:
+        return None
+    category = categories[int(rng.integers(len(categories)))]
+    program: list[Node] = [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": category, "color": None},
+                           {"op": "count", "inputs": [1]}]
+    try:
+        values = execute(program, view)
+    except ProgramError:
+        return None
+    name = next(o.name for o in view.objects if o.category == category)
+    book = Phrasebook.get()
+    prompt = book.template("quantity", "count", rng=rng).format(plural=book.plural(name))
+    return make_qa("quantitative", "count", prompt, str(values[-1]), program, values, views, rng,
+                   answer_value={"value": values[-1], "unit": "count"})

@@ -1,0 +1,68 @@
+"""Visual choice: coloured boxes drawn around a few objects; which box holds the described one?
+
+The record keeps the clean image and stores the marks (box, colour, label);
+``refspatial.annotate.draw_marks`` draws them for exports and audits.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..relations import ViewFacts
+from .common import QA, make_qa, pick_target
+from .location import describe_target
+from .phrases import Phrasebook
+from .program import Node, execute
+from .refer import compile_ref
+
+MAX_IOU = 0.3  # boxes overlapping more than this would make the marks themselves ambiguous
+LABELS = "ABCD"
+
+
+def visual_choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
+    view = views["self"]
+    target = pick_target(view, rng)
+    ref = describe_target(view, target, steps, rng)
+    if ref is None:
+        return None
+    others = [o for o in view.askable() if o.object_id != target.object_id]
+    order = [others[int(i)] for i in rng.permutation(len(others))]
+    chosen, limit = [target], 3 + int(rng.random() < 0.3)
+    for o in order:
+        if len(chosen) == limit:
+            break
+        if all(_iou(_box(view, o.object_id), _box(view, c.object_id)) < MAX_IOU for c in chosen):
+            chosen.append(o)
+    if len(chosen) < 3:
+        return None
+    book = Phrasebook.get()
+    colours = book.data["mark_colors"]
+    names = [list(colours)[int(i)] for i in rng.permutation(len(colours))[: len(chosen)]]
+    shuffled = [chosen[int(i)] for i in rng.permutation(len(chosen))]
+    marks = [{"label": LABELS[k], "color": names[k], "rgb": colours[names[k]], "object_id": o.object_id,
+              "box_px": _box(view, o.object_id)} for k, o in enumerate(shuffled)]
+    text, texts = book.describe(ref, rng, view)
+    program: list[Node] = []
+    u = compile_ref(ref, program, texts)
+    program.append({"op": "mark", "inputs": [u], "marks": [{"label": m["label"], "object_id": m["object_id"]}
+                                                             for m in marks]})
+    values = execute(program, view)
+    options = " ".join(f"({m['label']}) the {m['color']} box" for m in marks)
+    prompt = book.template("visual_choice", rng=rng).format(ref=text, options=options)
+    return make_qa("visual_choice", "box", prompt, f"({values[-1]})", program, values, views, rng,
+                   target=values[-2], ref=text, marks=marks)
+
+
+def _box(view: ViewFacts, object_id: int) -> list[int]:
+    rows, cols = np.nonzero(view.seg == object_id)
+    pad = max(1, round(min(view.width, view.height) / 180))
+    return [max(0, int(cols.min()) - pad), max(0, int(rows.min()) - pad),
+            min(view.width - 1, int(cols.max()) + pad), min(view.height - 1, int(rows.max()) + pad)]
+
+
+def _iou(a: list[int], b: list[int]) -> float:
+    ix = max(0, min(a[2], b[2]) - max(a[0], b[0]))
+    iy = max(0, min(a[3], b[3]) - max(a[1], b[1]))
+    inter = ix * iy
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / union if union else 0.0
