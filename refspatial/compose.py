@@ -16,6 +16,7 @@ from .seeding import stage_rng
 
 PLACEMENT_TRIES = 200  # per object, before the scene is rejected as too crowded
 MAX_FILL = 0.3  # footprints may cover at most this share of the placement region
+HOST_FIT = 0.8  # a hosted object's footprint circle must fit within this share of the cavity or top face
 
 
 class SceneRejected(RuntimeError):
@@ -112,10 +113,15 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Gen
     centre = rng.uniform(-slack, slack)
     placed: list[PlacedObject] = []
     quads: list[np.ndarray] = []
-    # Big things first: they are the hardest to fit.
+    hosts: list[PlacedObject] = []  # containers and supports still free to take one object
+    # Big things first: they are the hardest to fit, and they host the small ones.
     order = sorted(range(len(assets)), key=lambda i: -float(np.prod(assets[i].size_m[:2])))
     for i in order:
         asset = assets[i]
+        on_host = _on_host(i, asset, hosts, spec, rng)
+        if on_host is not None:
+            placed.append(on_host)
+            continue
         for _ in range(PLACEMENT_TRIES):
             x, y = centre + rng.uniform(-side / 2, side / 2, size=2)
             yaw = float(rng.uniform(-np.pi, np.pi))
@@ -128,4 +134,34 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Gen
         quads.append(quad)
         z = table.top_z_m + spec["drop_height_m"]
         placed.append(PlacedObject(i, asset, Pose((float(x), float(y), z), yaw_quat(yaw))))
+        if asset.cavity is not None or asset.support:
+            hosts.append(placed[-1])
     return tuple(sorted(placed, key=lambda o: o.object_id))
+
+
+def _on_host(i: int, asset: Asset, hosts: list[PlacedObject], spec: dict, rng: np.random.Generator):
+    """Put the object into a container or onto a support, by the recipe's odds, if one fits it.
+
+    The draws happen whether or not a host fits, so a change in hosts never
+    shifts the rest of the layout's random stream more than it must.
+    """
+    wants_fill, wants_stack = rng.random() < spec["fill"], rng.random() < spec["stack"]
+    yaw = float(rng.uniform(-np.pi, np.pi))
+    jitter = rng.uniform(-1.0, 1.0, size=2)
+    radius = 0.5 * float(np.hypot(*asset.size_m[:2]))
+    for host in hosts:
+        cav, hsize = host.asset.cavity, host.asset.size_m
+        if wants_fill and cav is not None and radius <= HOST_FIT * min(cav.half_extents_m):
+            slack = min(cav.half_extents_m) * HOST_FIT - radius
+            z_local = cav.floor_z_m
+        elif wants_stack and host.asset.support and radius <= HOST_FIT * 0.5 * min(hsize[:2]):
+            slack = 0.5 * min(hsize[:2]) * HOST_FIT - radius
+            z_local = float(host.asset.visual.bounds_m[1, 2])
+        else:
+            continue
+        hosts.remove(host)
+        x, y, z = host.pose.pos_world_m
+        offset = jitter * max(slack, 0.0) * 0.5
+        return PlacedObject(i, asset, Pose((float(x + offset[0]), float(y + offset[1]),
+                                            float(z + z_local + spec["drop_height_m"])), yaw_quat(yaw)))
+    return None

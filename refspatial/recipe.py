@@ -114,6 +114,8 @@ SCHEMA: dict[str, dict[str, Callable[[Any], str | None]]] = {
         "count": _range(1, 40, integer=True),
         "categories": _categories,
         "repeat_category": _scalar(0, 1),
+        "fill": _scalar(0, 1),
+        "stack": _scalar(0, 1),
         "min_gap_m": _scalar(0, 0.5),
         "drop_height_m": _scalar(0, 0.2),
     },

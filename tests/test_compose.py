@@ -22,15 +22,39 @@ def test_objects_are_on_the_table_without_overlap(tiny, catalogue, seed):
     lo, hi = tiny["objects"]["count"]
     assert lo <= len(scene.objects) <= hi
     assert [o.object_id for o in scene.objects] == list(range(len(scene.objects)))
+    table_z = scene.table.top_z_m + tiny["objects"]["drop_height_m"]
+    on_table = [o for o in scene.objects if o.pose.pos_world_m[2] == pytest.approx(table_z)]
     quads = []
-    for o in scene.objects:
-        x, y, z = o.pose.pos_world_m
-        w, _, _, qz = o.pose.quat_wxyz
-        quad = footprint_corners(o.asset, x, y, 2 * np.arctan2(qz, w))
+    for o in on_table:
+        quad = _quad(o)
         assert np.all(np.abs(quad) <= np.array(scene.table.size_m) / 2)
-        assert z == pytest.approx(scene.table.top_z_m + tiny["objects"]["drop_height_m"])
         assert not any(boxes_overlap(quad, q) for q in quads)
         quads.append(quad)
+    for o in scene.objects:
+        if o in on_table:
+            continue
+        # Hosted: inside a container or on a support, whose footprint holds its centre.
+        hosts = [h for h in on_table if (h.asset.cavity or h.asset.support) and boxes_overlap(_quad(o), _quad(h))]
+        assert len(hosts) == 1
+        assert o.pose.pos_world_m[2] > table_z
+
+
+def test_recipes_fill_containers_and_stack_on_supports(tiny, catalogue):
+    hosted = 0
+    for seed in range(30):
+        try:
+            scene = compose(tiny, catalogue, seed)
+        except SceneRejected:
+            continue
+        z = scene.table.top_z_m + tiny["objects"]["drop_height_m"]
+        hosted += sum(o.pose.pos_world_m[2] > z + 1e-9 for o in scene.objects)
+    assert hosted >= 3
+
+
+def _quad(o):
+    x, y, _ = o.pose.pos_world_m
+    w, _, _, qz = o.pose.quat_wxyz
+    return footprint_corners(o.asset, x, y, 2 * np.arctan2(qz, w))
 
 
 def test_overlap_test_on_known_boxes():
