@@ -89,7 +89,20 @@ def test_unary_relation_description_counts_one_step():
     assert "table" in text
 
 
-@pytest.mark.parametrize("steps", [2, 3, 4, 5])
+def test_five_step_description_on_a_scene_made_for_it():
+    # Cup 1 alone is both between the mug and the bowl and left of the plate.
+    v = view(obj(0, "mug", "red", -0.3, 0.0), obj(1, "cup", "red", -0.1, 0.0), obj(2, "cup", "red", 0.1, 0.0),
+             obj(3, "cup", "red", -0.3, 0.3), obj(4, "bowl", "blue", 0.3, 0.0), obj(5, "plate", "white", 0.0, 0.3))
+    for seed in range(20):
+        refs = anchored_refs(v, v.objects[1], 5, np.random.default_rng(seed), Phrasebook.get().phrased)
+        if refs:
+            program, values = run(refs[0], v)
+            assert values[-1] == 1 and count_steps(program) == 5 and not is_degenerate(program, v)
+            return
+    raise AssertionError("no five-step description found in 20 seeds")
+
+
+@pytest.mark.parametrize("steps", [2, 3, 4])
 def test_generated_descriptions_resolve_with_their_step_count(steps):
     rng = np.random.default_rng(steps)
     found = 0

@@ -158,17 +158,62 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
         "between": _between_parts(view, target, anchors) if "between" in phrased else [],
     }
     heads = [None] if any_category else [None, target.color]
+    category = None if any_category else target.category
+    kept = {color: _kept_sets(view, category, color, parts) for color in heads}
     out: list[Ref] = []
     for rels in _combinations(parts, COMBOS.get(steps, ()), rng):
         for color in heads:
-            category = None if any_category else target.category
+            # Sets first (cheap); the full program runs only for combinations that already fit.
+            head, sets = kept[color]
+            if not _picks_only(target.object_id, head, [sets.get(r) for r in rels]):
+                continue
             ref = Ref(target.object_id, category, "object" if any_category else target.name, color, relations=rels)
             if resolves(ref, view):
                 out.append(ref)
                 break
-        if len(out) >= 2:  # enough to choose from; resolving is the costly part
+        if len(out) >= 2:
             break
     return out
+
+
+def _kept_sets(view: ViewFacts, category: str | None, color: str | None, parts):
+    """The head's candidates, and for each part (kept, undecided): the candidates it keeps, and
+    those it cannot decide (a program fails if one of those is still a candidate when it runs)."""
+    ids = [o.object_id for o in view.objects if o.status != "hidden"
+           and category in (None, o.category) and color in (None, o.color)]
+    if any(view.objects[i].status != "visible" for i in ids):
+        return frozenset(), {}
+    out = {}
+    for rel in (r for group in parts.values() for r in group):
+        anchors = [a.object_id for a in rel.anchors]
+        kept, undecided = set(), set()
+        for i in ids:
+            if i in anchors:
+                continue
+            args = [*anchors, i] if rel.reverse else [i, *anchors]
+            verdict = PREDICATES[rel.predicate](view, *(view.objects[k] for k in args))
+            if verdict is None:
+                undecided.add(i)
+            elif verdict:
+                kept.add(i)
+        out[rel] = (frozenset(kept), frozenset(undecided))
+    return frozenset(ids), out
+
+
+def _picks_only(target: int, head: frozenset, parts: list[tuple[frozenset, frozenset] | None]) -> bool:
+    """Run in order, the parts decide every remaining candidate, keep only the target, and none of
+    them is idle (dropping any one leaves more than the target)."""
+    if any(p is None for p in parts):
+        return False
+    remaining = head
+    for kept, undecided in parts:
+        if remaining & undecided:
+            return False
+        remaining = remaining & kept
+    if remaining != {target}:
+        return False
+    sets = [kept for kept, _ in parts]
+    return all(head.intersection(*(sets[:k] + sets[k + 1:])) != {target} for k in range(len(sets)))
 
 
 def _combinations(parts: dict[str, list[Relation]], shapes, rng: np.random.Generator):
