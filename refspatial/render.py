@@ -2,7 +2,12 @@
 
 MuJoCo renders through EGL (Mesa llvmpipe on CPU machines, NVIDIA's driver on
 GPU machines) or OSMesa when the user sets ``MUJOCO_GL=osmesa``. The model and GL
-context live only inside ``render_views``; callers get plain arrays.
+context live only inside this module; callers get plain arrays.
+
+Two passes per camera: the shaded colour pass, then one "segment" pass (flat
+id colours, no lighting) read back as ids and depth together, the way MuJoCo's
+own Renderer reads depth. One GL context is kept per process and reused across
+scenes: creating it costs more than rendering a view on a CPU rasteriser.
 """
 
 from __future__ import annotations
@@ -17,6 +22,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 from .assets import MaterialSpec  # noqa: E402
 from .mjcf import COLLISION_GROUP, SpecOptions, build_spec, object_of_geom  # noqa: E402
 from .scene import Camera, Scene  # noqa: E402
+
+MAX_GEOM = 2000
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,44 +42,88 @@ class View:
         return self.camera.T_world_cam()
 
 
+class _Context:
+    """The process's GL context, grown when a bigger framebuffer is asked for."""
+
+    gl = None
+    size = (0, 0)
+
+    @classmethod
+    def current(cls, width: int, height: int):
+        import mujoco
+
+        if cls.gl is None or width > cls.size[0] or height > cls.size[1]:
+            if cls.gl is not None:
+                cls.gl.free()
+            cls.size = (max(width, cls.size[0]), max(height, cls.size[1]))
+            cls.gl = mujoco.GLContext(*cls.size)
+        cls.gl.make_current()
+        return cls.gl
+
+
 def render_views(scene: Scene, materials: dict[str, MaterialSpec]) -> list[View]:
     """Render every camera of a settled scene."""
     import mujoco
 
-    spec = build_spec(scene, materials, SpecOptions(dynamic=False))
-    model = spec.compile()
+    width, height = scene.cameras[0].width, scene.cameras[0].height
+    for cam in scene.cameras:
+        if (cam.width, cam.height) != (width, height):
+            raise ValueError(f"camera {cam.name} is {cam.width}x{cam.height}; all views of a scene must share one size")
+    model = build_spec(scene, materials, SpecOptions(dynamic=False, offscreen=(width, height))).compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    lookup = object_of_geom(model, len(scene.objects))
-    option = mujoco.MjvOption()
-    option.geomgroup[COLLISION_GROUP] = 0
-    views = []
-    width = max(c.width for c in scene.cameras)
-    height = max(c.height for c in scene.cameras)
-    renderer = mujoco.Renderer(model, height=height, width=width)
+    _Context.current(model.vis.global_.offwidth, model.vis.global_.offheight)
+    ctx = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
     try:
-        for cam in scene.cameras:
-            views.append(_render_one(renderer, data, option, cam, lookup))
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, ctx)
+        ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        lookup = object_of_geom(model, len(scene.objects))
+        return [_render_one(model, data, ctx, cam, lookup) for cam in scene.cameras]
     finally:
-        renderer.close()
-    return views
+        ctx.free()
 
 
-def _render_one(renderer, data, option, cam: Camera, lookup: np.ndarray) -> View:
+def _render_one(model, data, ctx, cam: Camera, lookup: np.ndarray) -> View:
     import mujoco
 
-    if (renderer.width, renderer.height) != (cam.width, cam.height):
-        raise ValueError(f"camera {cam.name} is {cam.width}x{cam.height}; all views of a scene must share one size")
-    renderer.update_scene(data, camera=cam.name, scene_option=option)
-    rgb = renderer.render().copy()
-    renderer.enable_depth_rendering()
-    renderer.update_scene(data, camera=cam.name, scene_option=option)
-    depth = renderer.render().astype(np.float32)
-    renderer.disable_depth_rendering()
-    renderer.enable_segmentation_rendering()
-    renderer.update_scene(data, camera=cam.name, scene_option=option)
-    ids = renderer.render()
-    renderer.disable_segmentation_rendering()
-    is_geom = ids[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)
-    seg = np.where(is_geom, lookup[np.clip(ids[..., 0], 0, len(lookup) - 1)], -1).astype(np.int32)
-    return View(cam, rgb, depth, seg)
+    option = mujoco.MjvOption()
+    option.geomgroup[COLLISION_GROUP] = 0
+    scn = mujoco.MjvScene(model, maxgeom=MAX_GEOM)
+    camera = mujoco.MjvCamera()
+    camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+    camera.fixedcamid = model.camera(cam.name).id
+    mujoco.mjv_updateScene(model, data, option, None, camera, mujoco.mjtCatBit.mjCAT_ALL.value, scn)
+    rect = mujoco.MjrRect(0, 0, cam.width, cam.height)
+    rgb = np.empty((cam.height, cam.width, 3), dtype=np.uint8)
+    mujoco.mjr_render(rect, scn, ctx)
+    mujoco.mjr_readPixels(rgb, None, rect, ctx)
+    scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
+    scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+    ids = np.empty((cam.height, cam.width, 3), dtype=np.uint8)
+    raw = np.empty((cam.height, cam.width), dtype=np.float32)
+    mujoco.mjr_render(rect, scn, ctx)
+    mujoco.mjr_readPixels(ids, raw, rect, ctx)
+    # OpenGL's rows run bottom-up.
+    return View(cam, np.flipud(rgb).copy(), np.flipud(metric_depth(model, raw)).copy(),
+                np.flipud(_segmentation(scn, ids, lookup)).copy())
+
+
+def metric_depth(model, raw: np.ndarray) -> np.ndarray:
+    """Reversed-Z depth buffer -> metres along the optical axis (platform.md: n f / (n + raw (f - n)))."""
+    extent = model.stat.extent
+    n = np.float64(model.vis.map.znear * extent)
+    f = np.float64(model.vis.map.zfar * extent)
+    return (n * f / (n + raw.astype(np.float64) * (f - n))).astype(np.float32)
+
+
+def _segmentation(scn, ids: np.ndarray, lookup: np.ndarray) -> np.ndarray:
+    """Id colours -> object ids: colour value s + 1 is the drawn geom with segid s (0 is the background)."""
+    import mujoco
+
+    code = ids[..., 0].astype(np.int64) + (ids[..., 1].astype(np.int64) << 8) + (ids[..., 2].astype(np.int64) << 16)
+    table = np.full(scn.ngeom + 2, -1, dtype=np.int32)
+    for k in range(scn.ngeom):
+        g = scn.geoms[k]
+        if g.segid >= 0 and g.objtype == mujoco.mjtObj.mjOBJ_GEOM and 0 <= g.objid < len(lookup):
+            table[g.segid + 1] = lookup[g.objid]
+    return table[np.clip(code, 0, scn.ngeom + 1)]
