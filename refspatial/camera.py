@@ -15,6 +15,7 @@ import numpy as np
 
 from .compose import SceneRejected
 from .recipe import Recipe
+from .relations.geometry import project as project_points
 from .scene import Camera, Scene, matrix_to_quat
 from .seeding import stage_rng
 
@@ -42,11 +43,8 @@ def look_rotation(yaw: float, pitch: float) -> np.ndarray:
 
 
 def project(points_world: np.ndarray, cam: Camera) -> tuple[np.ndarray, np.ndarray]:
-    """Pixel coordinates (N, 2) and depths (N,) of world points in an OpenCV camera."""
-    T = cam.T_world_cam()
-    p_cam = (points_world - T[:3, 3]) @ T[:3, :3]
-    uvw = p_cam @ cam.intrinsics().T
-    return uvw[:, :2] / uvw[:, 2:3], p_cam[:, 2]
+    """Pixel coordinates (N, 2) and depths (N,) of world points seen by a camera."""
+    return project_points(points_world, cam.intrinsics(), cam.T_world_cam())
 
 
 def _object_corners(scene: Scene) -> np.ndarray:

@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import PREDICATES, ViewFacts
-from .common import QA, make_qa
+from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
-from .program import Node, ProgramError, execute
-from .refer import compile_ref, relation_predicates, simple_refs
+from .refer import relation_predicates
 
 PAIR_TRIES = 12
 
@@ -22,19 +21,6 @@ def choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.G
     if r < 0.55:
         return _yes_no(views, sorted(relation_predicates(book.phrased, 1)), rng)
     return _pick(views, sorted(book.data["comparatives"]), rng)
-
-
-def _described(view: ViewFacts, objects, rng):
-    """Simple descriptions (and their words) of each object, or None."""
-    book = Phrasebook.get()
-    out = []
-    for o in objects:
-        refs = simple_refs(view, o)[:1]
-        if not refs:
-            return None
-        text, texts = book.describe(refs[0], rng, view)
-        out.append((refs[0], text, texts))
-    return out
 
 
 def _yes_no(views, predicates: list[str], rng) -> QA | None:
@@ -51,20 +37,13 @@ def _yes_no(views, predicates: list[str], rng) -> QA | None:
             break
     else:
         return None
-    described = _described(view, group, rng)
-    if described is None:
+    built = over_objects(view, group, {"op": "query", "predicate": name}, rng)
+    if built is None:
         return None
-    program: list[Node] = []
-    ids = [compile_ref(ref, program, texts) for ref, _, texts in described]
-    program.append({"op": "query", "inputs": ids, "predicate": name})
-    try:
-        values = execute(program, view)
-    except ProgramError:
-        return None
+    program, values, words = built
     book = Phrasebook.get()
     side = group[1].front_side if len(group) > 1 else "front"
     phrase = book.relation_phrase(name, False, rng, side=side)
-    words = [text for _, text, _ in described]
     if pred.arity == 1:
         prompt = book.template("yes_no_unary", rng=rng).format(a=words[0], phrase=phrase)
     else:
@@ -85,18 +64,12 @@ def _pick(views, predicates: list[str], rng) -> QA | None:
             break
     else:
         return None
-    described = _described(view, (a, b), rng)
-    if described is None:
+    built = over_objects(view, (a, b), {"op": "pick", "predicate": name}, rng)
+    if built is None:
         return None
-    program: list[Node] = []
-    ids = [compile_ref(ref, program, texts) for ref, _, texts in described]
-    program.append({"op": "pick", "inputs": ids, "predicate": name})
-    try:
-        values = execute(program, view)
-    except ProgramError:
-        return None
+    program, values, (opt_a, opt_b) = built
+    ids = program[-1]["inputs"]
     book = Phrasebook.get()
-    opt_a, opt_b = described[0][1], described[1][1]
     prompt = book.template("pick", rng=rng).format(comparative=book.comparative(name, rng), opt_a=opt_a, opt_b=opt_b)
     letter = "(A)" if values[-1] == values[ids[0]] else "(B)"
     return make_qa("choice", "pick", prompt, letter, program, values, views, rng, target=values[-1])

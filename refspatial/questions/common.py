@@ -9,7 +9,8 @@ import numpy as np
 
 from ..relations import PREDICATES, ViewFacts
 from .phrases import Phrasebook
-from .program import Node, count_steps, with_results
+from .program import Node, ProgramError, count_steps, execute, with_results
+from .refer import compile_ref, simple_refs
 
 QA = dict[str, Any]
 POINT_TRIES = 20
@@ -35,6 +36,29 @@ def pick_target(view: ViewFacts, rng: np.random.Generator):
     diag = float(np.hypot(view.width, view.height))
     w = np.array([0.3 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs])
     return objs[int(rng.choice(len(objs), p=w / w.sum()))]
+
+
+def over_objects(view: ViewFacts, objects, node: Node, rng) -> tuple[list[Node], list, list[str]] | None:
+    """Describe each object in the plainest way that works, then apply ``node`` to them.
+
+    Returns (program, values, the objects' words), or None when an object has no
+    safe description or the final node does not execute (near-tie).
+    """
+    book = Phrasebook.get()
+    program: list[Node] = []
+    ids, words = [], []
+    for o in objects:
+        refs = simple_refs(view, o)[:1]
+        if not refs:
+            return None
+        text, texts = book.describe(refs[0], rng, view)
+        ids.append(compile_ref(refs[0], program, texts))
+        words.append(text)
+    program.append({**node, "inputs": ids})
+    try:
+        return program, execute(program, view), words
+    except ProgramError:
+        return None
 
 
 def erosion_px(view: ViewFacts) -> int:

@@ -26,18 +26,28 @@ def describe_target(view: ViewFacts, target, steps: int, rng: np.random.Generato
     return refs[int(rng.integers(len(refs)))] if refs else None
 
 
-def location(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
-    """Point to the one object a description picks (1 to 5 steps)."""
-    view = views["self"]
+def described_target(views: dict[str, ViewFacts], steps: int, rng: np.random.Generator, where: str = "self"):
+    """(target, its description's words, the program resolving it) in view ``where``, or None."""
+    view = views[where]
     target = pick_target(view, rng)
     ref = describe_target(view, target, steps, rng)
     if ref is None:
         return None
-    book = Phrasebook.get()
-    text, texts = book.describe(ref, rng, view)
+    text, texts = Phrasebook.get().describe(ref, rng, view)
     program: list[Node] = []
-    compile_ref(ref, program, texts)
+    compile_ref(ref, program, texts, view=where)
+    return target, text, program
+
+
+def location(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
+    """Point to the one object a description picks (1 to 5 steps)."""
+    view = views["self"]
+    found = described_target(views, steps, rng)
+    if found is None:
+        return None
+    _, text, program = found
     values = execute(program, view)
+    book = Phrasebook.get()
     points = sample_points(view, values[-1], spec["answer_points"], rng)
     if points is None:
         return None

@@ -8,11 +8,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
-from .common import QA, format_points, make_qa, pick_target, sample_points
-from .location import describe_target
+from .common import QA, format_points, make_qa, sample_points
+from .location import described_target
 from .phrases import Phrasebook
 from .program import Node, ProgramError, execute
-from .refer import compile_ref
 
 
 def multiview(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
@@ -23,19 +22,15 @@ def multiview(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.rando
 
 def _same_object(views, spec: dict, steps: int, rng) -> QA | None:
     """Point in image 2 to the object a description picks in image 1."""
-    first, second = views["other"], views["self"]
-    target = pick_target(first, rng)
-    if second.objects[target.object_id].status != "visible":
+    second = views["self"]
+    found = described_target(views, steps, rng, where="other")
+    if found is None or second.objects[found[0].object_id].status != "visible":
         return None
-    ref = describe_target(first, target, steps, rng)
-    if ref is None:
-        return None
-    book = Phrasebook.get()
-    text, texts = book.describe(ref, rng, first)
-    program: list[Node] = []
-    u = compile_ref(ref, program, texts, view="other")
-    program.append({"op": "unique", "inputs": [u], "text": text})  # the same object, now located in image 2
+    _, text, program = found
+    # The same object, now located in image 2.
+    program.append({"op": "unique", "inputs": [len(program) - 1], "text": text})
     values = execute(program, views)
+    book = Phrasebook.get()
     points = sample_points(second, values[-1], spec["answer_points"], rng)
     if points is None:
         return None

@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
-from .common import QA, make_qa
+from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
 from .program import Node, ProgramError, execute
-from .refer import compile_ref, simple_refs
 
 ONE_OBJECT = ("depth", "height", "width", "rotate_horizontal", "rotate_vertical")
 TWO_OBJECTS = ("distance_between", "angle_between")
@@ -25,22 +24,11 @@ def quantity(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random
     if len(objs) < n:
         return None
     group = [objs[int(i)] for i in rng.choice(len(objs), size=n, replace=False)]
-    refs = [simple_refs(view, o)[:1] for o in group]
-    if not all(refs):
+    built = over_objects(view, group, {"op": "measure", "quantity": kind}, rng)
+    if built is None:
         return None
+    program, values, words = built
     book = Phrasebook.get()
-    words, texts = [], {}
-    for r in refs:
-        text, t = book.describe(r[0], rng, view)
-        words.append(text)
-        texts.update(t)
-    program: list[Node] = []
-    ids = [compile_ref(r[0], program, texts) for r in refs]
-    program.append({"op": "measure", "inputs": ids, "quantity": kind})
-    try:
-        values = execute(program, view)
-    except ProgramError:
-        return None
     value = float(values[-1])
     unit = "deg" if kind in ("angle_between", "rotate_horizontal", "rotate_vertical") else "m"
     prompt = book.template("quantity", kind, rng=rng).format(a=words[0], b=words[-1])

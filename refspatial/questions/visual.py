@@ -9,11 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
-from .common import QA, make_qa, pick_target
-from .location import describe_target
+from .common import QA, make_qa
+from .location import described_target
 from .phrases import Phrasebook
-from .program import Node, execute
-from .refer import compile_ref
+from .program import execute
 
 MAX_IOU = 0.3  # boxes overlapping more than this would make the marks themselves ambiguous
 LABELS = "ABCD"
@@ -21,10 +20,10 @@ LABELS = "ABCD"
 
 def visual_choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
     view = views["self"]
-    target = pick_target(view, rng)
-    ref = describe_target(view, target, steps, rng)
-    if ref is None:
+    found = described_target(views, steps, rng)
+    if found is None:
         return None
+    target, text, program = found
     others = [o for o in view.askable() if o.object_id != target.object_id]
     order = [others[int(i)] for i in rng.permutation(len(others))]
     chosen, limit = [target], 3 + int(rng.random() < 0.3)
@@ -41,11 +40,8 @@ def visual_choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.r
     shuffled = [chosen[int(i)] for i in rng.permutation(len(chosen))]
     marks = [{"label": LABELS[k], "color": names[k], "rgb": colours[names[k]], "object_id": o.object_id,
               "box_px": _box(view, o.object_id)} for k, o in enumerate(shuffled)]
-    text, texts = book.describe(ref, rng, view)
-    program: list[Node] = []
-    u = compile_ref(ref, program, texts)
-    program.append({"op": "mark", "inputs": [u], "marks": [{"label": m["label"], "object_id": m["object_id"]}
-                                                             for m in marks]})
+    labels = [{"label": m["label"], "object_id": m["object_id"]} for m in marks]
+    program.append({"op": "mark", "inputs": [len(program) - 1], "marks": labels})
     values = execute(program, view)
     options = " ".join(f"({m['label']}) the {m['color']} box" for m in marks)
     prompt = book.template("visual_choice", rng=rng).format(ref=text, options=options)
