@@ -30,14 +30,27 @@ def build_parser() -> argparse.ArgumentParser:
     parser.description = "Generate, inspect and audit multi-step spatial-referring QA data."
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    g = sub.add_parser("generate", help="compose, render and write a sharded dataset")
+    g = sub.add_parser("generate", help="compose, render and write a sharded dataset",
+                       description="Generate a dataset, or finish one: re-running the same command after a "
+                       "crash, kill or full disk skips complete shards and redoes the rest.")
     g.add_argument("--scenes", type=_nonnegative, required=True, help="number of scenes to generate")
     g.add_argument("--recipe", default="tabletop", help="recipe name in recipes/ or a .yaml path (default: tabletop)")
     g.add_argument("--out", type=Path, default=Path("data"), help="output folder (default: ./data)")
     g.add_argument("--seed", type=int, default=0, help="base seed; scene i uses a seed hashed from (seed, i)")
-    g.add_argument("--workers", type=_positive, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
+    g.add_argument("--workers", type=_positive, default=os.cpu_count() or 1,
+                   help="worker processes, or CPUs of a local Ray instance (default: all cores)")
     g.add_argument("--scenes-per-shard", type=_positive, default=25, help="scenes per MCAP shard (default: 25)")
-    g.add_argument("--quiet", action="store_true", help="no progress lines")
+    g.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="local worker processes (default), or Ray tasks (pip install 'refspatial[ray]')")
+    g.add_argument("--address", help="Ray cluster to join, e.g. head-node:6379 (default: $RAY_ADDRESS, "
+                   "else a Ray instance started for this run)")
+    g.add_argument("--gpus-per-task", type=float, default=0.0,
+                   help="GPU share each Ray task asks for, e.g. 0.25; > 0 renders through NVIDIA EGL (default: 0)")
+    g.add_argument("--dry-run", action="store_true",
+                   help="print the plan with size and time estimates, write nothing")
+    g.add_argument("--calibrate", type=_nonnegative, default=3,
+                   help="scenes made in a temporary folder to calibrate --dry-run estimates (default: 3)")
+    g.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
     s = sub.add_parser("stats", help="print counts of scenes, records, QA, predicates, steps and categories")
     s.add_argument("dir", type=Path)
@@ -47,6 +60,14 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--recipe", default="tabletop")
     c.add_argument("--seed", type=int, required=True, help="the scene seed (a record's scene.seed)")
     c.add_argument("--mjcf", type=Path, required=True, help="output .xml path")
+
+    v = sub.add_parser("verify", help="re-execute every stored program and check every answer and checksum")
+    v.add_argument("dir", type=Path)
+    v.add_argument("--max-failures", type=int, default=50, help="failures to list (all are counted)")
+
+    from .export import add_cli as add_export_cli
+
+    add_export_cli(sub)
 
     sub.add_parser("recipes", help="list the recipes shipped in recipes/")
     return parser
@@ -66,27 +87,50 @@ def main(argv: list[str] | None = None) -> int:
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     from .assets import CatalogueError
+    from .export import ExportError
     from .recipe import RecipeError
     from .records import ShardError
     from .shards import RunError
 
-    return (RecipeError, CatalogueError, RunError, ShardError, FileNotFoundError, NotADirectoryError)
+    return (RecipeError, CatalogueError, RunError, ShardError, ExportError, FileNotFoundError, NotADirectoryError)
 
 
 def _generate(args: argparse.Namespace) -> int:
+    """Exit 0 when the dataset is complete, 1 when some shard failed (message says how to
+    finish), 2 for a usage error; Ctrl-C or SIGTERM keeps complete shards (main says so)."""
     from .assets import load_catalogue
     from .compose import category_pool
+    from .executors import choose_executor, sigterm_as_interrupt
+    from .progress import RunProgress, dry_run, format_plan
     from .recipe import load_recipe
-    from .shards import Progress, RunError, generate
+    from .shards import RunError, RunFailed, generate
 
+    executor = choose_executor(args.executor, args.address, args.workers, args.gpus_per_task)
     recipe = load_recipe(args.recipe)
     catalogue = load_catalogue()
     try:
         category_pool(recipe, catalogue)
     except ValueError as exc:
         raise RunError(str(exc)) from None
-    manifest = generate(args.out, recipe, catalogue, args.scenes, args.seed, args.workers,
-                        args.scenes_per_shard, progress=None if args.quiet else Progress())
+    if args.dry_run:
+        if args.workers > 1 or args.executor == "ray":
+            os.environ["LP_NUM_THREADS"] = "1"  # calibrate at a worker's speed (set before any GL)
+        print(format_plan(dry_run(args.out, recipe, catalogue, args.scenes, args.seed, args.workers,
+                                  args.scenes_per_shard, args.calibrate)))
+        return 0
+    progress, manifest, failed = None if args.quiet else RunProgress(), None, None
+    with sigterm_as_interrupt():
+        try:
+            manifest = generate(args.out, recipe, catalogue, args.scenes, args.seed, args.workers,
+                                args.scenes_per_shard, progress=progress, executor=executor)
+        except RunFailed as exc:
+            failed = exc
+        finally:
+            if progress:
+                progress.close(finished=manifest is not None)
+    if failed:
+        print(f"refspatial: error: {failed}", file=sys.stderr)
+        return 1
     print(f"wrote {manifest['records']} records, {manifest['qa']} QA from {manifest['scenes']} scenes "
           f"({manifest['rejected']['count']} rejected) to {args.out}")
     return 0
@@ -125,6 +169,23 @@ def _scene(args: argparse.Namespace) -> int:
     return 0
 
 
+def _verify(args: argparse.Namespace) -> int:
+    from .verify import verify
+
+    report = verify(args.dir)
+    for line in report.failures[: args.max_failures]:
+        print(f"FAIL {line}")
+    if len(report.failures) > args.max_failures:
+        print(f"... and {len(report.failures) - args.max_failures} more failures")
+    print(f"verified {report.shards} shards, {report.records} records, {report.qa} QA: "
+          f"{len(report.failures)} failures")
+    return 1 if report.failures else 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    return args.func(args)
+
+
 def _recipes(args: argparse.Namespace) -> int:
     from .recipe import available
 
@@ -132,7 +193,8 @@ def _recipes(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"generate": _generate, "stats": _stats, "scene": _scene, "recipes": _recipes}
+COMMANDS = {"generate": _generate, "stats": _stats, "scene": _scene, "verify": _verify, "export": _export,
+            "recipes": _recipes}
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from itertools import permutations
+
 import numpy as np
 
 from ..relations import PREDICATES, ViewFacts
@@ -9,7 +11,6 @@ from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
 from .refer import relation_predicates
 
-PAIR_TRIES = 12
 
 
 def choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
@@ -28,15 +29,11 @@ def _yes_no(views, predicates: list[str], rng) -> QA | None:
     name = predicates[int(rng.integers(len(predicates)))]
     pred = PREDICATES[name]
     want = bool(rng.random() < 0.5)  # the answer is drawn first, so yes and no stay balanced
-    objs = view.askable()
-    if len(objs) < pred.arity:
+    # All groups with the wanted answer (verdicts are cached), so rare relations still get asked.
+    groups = [g for g in permutations(view.askable(), pred.arity) if pred(view, *g) is want]
+    if not groups:
         return None
-    for _ in range(PAIR_TRIES):
-        group = [objs[int(i)] for i in rng.choice(len(objs), size=pred.arity, replace=False)]
-        if pred(view, *group) is want:
-            break
-    else:
-        return None
+    group = groups[int(rng.integers(len(groups)))]
     built = over_objects(view, group, {"op": "query", "predicate": name}, rng)
     if built is None:
         return None
@@ -54,16 +51,12 @@ def _yes_no(views, predicates: list[str], rng) -> QA | None:
 def _pick(views, predicates: list[str], rng) -> QA | None:
     view = views["self"]
     name = predicates[int(rng.integers(len(predicates)))]
-    objs = view.askable()
-    if len(objs) < 2:
+    pred = PREDICATES[name]
+    pairs = [(a, b) for a, b in permutations(view.askable(), 2)
+             if None not in (pred(view, a, b), pred(view, b, a)) and pred(view, a, b) != pred(view, b, a)]
+    if not pairs:
         return None
-    for _ in range(PAIR_TRIES):
-        a, b = (objs[int(i)] for i in rng.choice(len(objs), size=2, replace=False))
-        verdicts = (PREDICATES[name](view, a, b), PREDICATES[name](view, b, a))
-        if None not in verdicts and verdicts[0] != verdicts[1]:
-            break
-    else:
-        return None
+    a, b = pairs[int(rng.integers(len(pairs)))]
     built = over_objects(view, (a, b), {"op": "pick", "predicate": name}, rng)
     if built is None:
         return None

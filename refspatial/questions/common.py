@@ -152,6 +152,8 @@ def make_qa(family: str, kind: str, prompt: str, answer: str, program: list[Node
     steps = trace(program, values, views, rng) if points else []
     if steps is None:
         return None
+    if steps and target is not None and steps[-1].get("object_id") == target and "view" not in steps[-1]:
+        steps[-1]["point"] = points[0]  # the chain ends where the answer points
     qa: QA = {
         "family": family,
         "kind": kind,

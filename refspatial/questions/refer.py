@@ -9,6 +9,7 @@ picks the intended object and none of its relations is degenerate.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import islice, product
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from ..relations import PREDICATES, ObjectFacts, ViewFacts
 from .program import ORDINAL_AXES, Node, ProgramError, execute, is_degenerate
 
 MAX_RANK = 3
-COMBOS_TRIED = 60  # random part combinations tried per description; resolving is the costly part
+COMBOS_CHECKED = 4000  # part combinations checked by candidate sets per shape (cheap set operations)
 
 
 def relation_predicates(phrased: set[str], arity: int) -> list[str]:
@@ -159,21 +160,39 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
     }
     heads = [None] if any_category else [None, target.color]
     category = None if any_category else target.category
-    kept = {color: _kept_sets(view, category, color, parts) for color in heads}
     out: list[Ref] = []
-    for rels in _combinations(parts, COMBOS.get(steps, ()), rng):
-        for color in heads:
-            # Sets first (cheap); the full program runs only for combinations that already fit.
-            head, sets = kept[color]
-            if not _picks_only(target.object_id, head, [sets.get(r) for r in rels]):
-                continue
+    for color in heads:
+        head, sets = _kept_sets(view, category, color, parts)
+        combos = _fitting_combinations(target.object_id, head, sets, parts, COMBOS.get(steps, ()), rng)
+        # Choose the first part's predicate uniformly, so frequent relations do not crowd out rare ones.
+        while combos and len(out) < 2:
+            names = sorted({c[0].predicate for c in combos})
+            name = names[int(rng.integers(len(names)))]
+            same = [c for c in combos if c[0].predicate == name]
+            rels = same[int(rng.integers(len(same)))]
+            combos.remove(rels)
             ref = Ref(target.object_id, category, "object" if any_category else target.name, color, relations=rels)
-            if resolves(ref, view):
+            if resolves(ref, view):  # the sets already say it fits; the program is the final word
                 out.append(ref)
-                break
-        if len(out) >= 2:
+        if out:
             break
     return out
+
+
+def _fitting_combinations(target: int, head: frozenset, sets, parts, shapes, rng) -> list[tuple[Relation, ...]]:
+    """Every combination of parts with a wanted shape that, by the candidate sets, picks only the
+    target with no idle part (checking at most COMBOS_CHECKED, in random order)."""
+    found = []
+    for shape in shapes:
+        lists = [[parts[kind][int(i)] for i in rng.permutation(len(parts[kind]))] for kind in shape]
+        lists = [[r for r in options if r in sets and target in sets[r][0]] for options in lists]
+        for rels in islice(product(*lists), COMBOS_CHECKED):
+            anchor_ids = [a.object_id for r in rels for a in r.anchors]
+            if len(set(anchor_ids)) != len(anchor_ids) or len({r.predicate for r in rels}) != len(rels):
+                continue
+            if _picks_only(target, head, [sets[r] for r in rels]):
+                found.append(rels)
+    return found
 
 
 def _kept_sets(view: ViewFacts, category: str | None, color: str | None, parts):
@@ -214,25 +233,6 @@ def _picks_only(target: int, head: frozenset, parts: list[tuple[frozenset, froze
         return False
     sets = [kept for kept, _ in parts]
     return all(head.intersection(*(sets[:k] + sets[k + 1:])) != {target} for k in range(len(sets)))
-
-
-def _combinations(parts: dict[str, list[Relation]], shapes, rng: np.random.Generator):
-    """Random combinations of parts with the wanted shapes, distinct anchors and predicates."""
-    shapes = [s for s in shapes if all(parts[k] for k in s)]
-    for _ in range(COMBOS_TRIED if shapes else 0):
-        shape = shapes[int(rng.integers(len(shapes)))]
-        # Pick a predicate first, then an instance, so common predicates do not crowd out rare ones.
-        rels = tuple(_pick_part(parts[kind], rng) for kind in shape)
-        anchor_ids = [a.object_id for r in rels for a in r.anchors]
-        if len(set(anchor_ids)) == len(anchor_ids) and len({r.predicate for r in rels}) == len(rels):
-            yield rels
-
-
-def _pick_part(options: list[Relation], rng: np.random.Generator) -> Relation:
-    names = sorted({r.predicate for r in options})
-    name = names[int(rng.integers(len(names)))]
-    same = [r for r in options if r.predicate == name]
-    return same[int(rng.integers(len(same)))]
 
 
 def _holds(view: ViewFacts, name: str, objs: list[ObjectFacts]) -> bool:
