@@ -55,6 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("stats", help="print counts of scenes, records, QA, predicates, steps and categories")
     s.add_argument("dir", type=Path)
     s.add_argument("--json", action="store_true", help="print JSON instead of text")
+    s.add_argument("--report", type=Path, metavar="HTML",
+                   help="also write a self-contained HTML audit report (plots, balance warnings) to this .html path")
 
     c = sub.add_parser("scene", help="write one composed, settled scene as MJCF (meshes beside it)")
     c.add_argument("--recipe", default="tabletop")
@@ -66,8 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--max-failures", type=int, default=50, help="failures to list (all are counted)")
 
     from .export import add_cli as add_export_cli
+    from .show import add_cli as add_show_cli
 
     add_export_cli(sub)
+    add_show_cli(sub)
 
     sub.add_parser("recipes", help="list the recipes shipped in recipes/")
     return parser
@@ -88,11 +92,14 @@ def main(argv: list[str] | None = None) -> int:
 def _user_errors() -> tuple[type[BaseException], ...]:
     from .assets import CatalogueError
     from .export import ExportError
+    from .report import ReportError
+    from .show import ShowError
     from .recipe import RecipeError
     from .records import ShardError
     from .shards import RunError
 
-    return (RecipeError, CatalogueError, RunError, ShardError, ExportError, FileNotFoundError, NotADirectoryError)
+    return (RecipeError, CatalogueError, RunError, ShardError, ExportError, ReportError, ShowError,
+            FileNotFoundError, NotADirectoryError)
 
 
 def _generate(args: argparse.Namespace) -> int:
@@ -137,10 +144,16 @@ def _generate(args: argparse.Namespace) -> int:
 
 
 def _stats(args: argparse.Namespace) -> int:
-    from .stats import collect, format_text
+    from .stats import collect, format_text, load_manifest
 
+    if args.report is not None and args.report.suffix != ".html":
+        raise FileNotFoundError(f"--report {args.report}: expected a path ending in .html")
     stats = collect(args.dir)
     print(json.dumps(stats, indent=1) if args.json else format_text(stats))
+    if args.report:
+        from .report import write_report
+
+        print(f"wrote {write_report(stats, load_manifest(args.dir), args.report)}", file=sys.stderr)
     return 0
 
 
@@ -182,6 +195,12 @@ def _verify(args: argparse.Namespace) -> int:
     return 1 if report.failures else 0
 
 
+def _show(args: argparse.Namespace) -> int:
+    from .show import run
+
+    return run(args)
+
+
 def _export(args: argparse.Namespace) -> int:
     return args.func(args)
 
@@ -194,6 +213,7 @@ def _recipes(args: argparse.Namespace) -> int:
 
 
 COMMANDS = {"generate": _generate, "stats": _stats, "scene": _scene, "verify": _verify, "export": _export,
+            "show": _show,
             "recipes": _recipes}
 
 if __name__ == "__main__":

@@ -1,16 +1,51 @@
-"""Dataset statistics for audits: what was generated, and how it is spread.
+"""Dataset statistics for audits: what was generated, how it is spread, and what dominates.
 
-Reads only the JSON topics of each record (no image is decoded), so it stays
-fast on large datasets.
+Reads only the JSON topics of each record (no image is decoded), so it stays fast on
+large datasets; the answer-point heatmap uses the stored normalised ``answer_points``.
+Every aggregate is a plain JSON value, so ``refspatial stats --json`` and the HTML report
+(``refspatial.report``) read the same dict.
 """
 
 from __future__ import annotations
 
 import json
+import math
+import re
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
+
 from .records import ShardReader
+
+# Answer-point histogram bins per axis. A multiple of 3, so the 3x3 balance grid is an exact
+# sum of bins; 24 still shows where on an object-sized scale points pile up.
+HEATMAP_BINS = 24
+# Bin edges (percent of the image) of each object's visible pixel share. Log-like steps,
+# because shares range from a few pixels (0.01 %) to a plate filling a fifth of the view.
+VISIBLE_SHARE_EDGES_PCT = (0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0)
+
+# --- balance thresholds ---------------------------------------------------------------------------
+# One predicate above 40 % of the predicates asked about: 12x a fair share among RefSpatial's
+# 31 and still 2.4x among six, so a model could lean on the prior instead of reading the image.
+PREDICATE_SHARE_MAX = 0.40
+# One answer letter of a multiple-choice kind more than 10 points above its fair share (60 % of
+# a yes/no or (A)/(B) kind, 35 % of a four-box visual choice): always answering it would beat
+# chance by that much with no spatial reasoning. CLEVR rejection-samples for the same reason.
+ANSWER_MARGIN = 0.10
+ANSWER_SHARE_MAX = 0.5 + ANSWER_MARGIN  # the two-option case, the common one
+# One cell of a 3x3 grid over the image holding over 35 % of answer points (a fair share is
+# 11 %): tabletop framing centres the objects, so the middle cell is allowed 3x its share,
+# but beyond that "point at the centre" becomes a winning strategy on pointing benchmarks.
+REGION_SHARE_MAX = 0.35
+# A check fires only when the dominance is beyond sampling noise: the lower end of the 95 %
+# Wilson interval of the share must exceed the threshold. A 12-scene smoke run holds ~40
+# choice answers, where 63 % for one letter is still within chance of a fair coin.
+CONFIDENCE_Z = 1.96
+
+_COUNTERS = ("qa_predicates", "relation_predicates", "qa_predicate_families", "relation_predicate_families",
+             "steps", "families", "kinds", "categories", "colors", "objects_per_record", "answers",
+             "visibility_status", "question_words", "image_sizes")
 
 
 def load_manifest(root: Path) -> dict:
@@ -20,37 +55,166 @@ def load_manifest(root: Path) -> dict:
     return json.loads(path.read_text(encoding="utf-8"))
 
 
+class _Tally:
+    """Running counts over records; one instance per ``collect`` call."""
+
+    def __init__(self) -> None:
+        self.c: dict[str, Counter] = {name: Counter() for name in _COUNTERS}
+        self.answers_by_kind: dict[str, Counter] = {}
+        self.answer_options: dict[str, int] = {}  # kind -> most options one of its questions offers
+        self.points = np.zeros((HEATMAP_BINS, HEATMAP_BINS), dtype=np.int64)  # rows = y, cols = x
+        self.visible_share = np.zeros(len(VISIBLE_SHARE_EDGES_PCT) - 1, dtype=np.int64)
+        self.families = predicate_families()
+
+    def add_record(self, sample: dict) -> None:
+        scene = sample["scene"]
+        objects = scene["objects"]
+        self.c["image_sizes"][f"{scene['width']}x{scene['height']}"] += 1
+        self.c["objects_per_record"][len(objects)] += 1
+        self.c["categories"].update(o["category"] for o in objects)
+        self.c["colors"].update(o["color"] for o in objects)
+        self.c["visibility_status"].update(o["visibility"] for o in objects)
+        pixels = scene["width"] * scene["height"]
+        shares = [100.0 * o["visible_px"] / pixels for o in objects]
+        self.visible_share += np.histogram(shares, bins=VISIBLE_SHARE_EDGES_PCT)[0]
+        for r in sample["relations"]:
+            self._predicate("relation", r["predicate"])
+        for qa in sample["qa"]:
+            self.add_qa(qa)
+
+    def add_qa(self, qa: dict) -> None:
+        self.c["families"][qa["family"]] += 1
+        self.c["kinds"][qa["kind"]] += 1
+        self.c["steps"][qa["num_steps"]] += 1
+        self.c["question_words"][len(qa["prompt"].split())] += 1
+        for p in qa["predicates"]:
+            self._predicate("qa", p)
+        options = len(set(re.findall(r"\(([A-Z])\)", qa["question"])))
+        if options >= 2 and re.fullmatch(r"\([A-Z]\)", qa["answer"]):  # letters, not values ("13 cm")
+            self.c["answers"][qa["answer"]] += 1
+            self.answers_by_kind.setdefault(qa["kind"], Counter())[answer_label(qa)] += 1
+            self.answer_options[qa["kind"]] = max(self.answer_options.get(qa["kind"], 0), options)
+        for x, y in qa["answer_points"]:
+            col = min(max(int(x * HEATMAP_BINS), 0), HEATMAP_BINS - 1)
+            row = min(max(int(y * HEATMAP_BINS), 0), HEATMAP_BINS - 1)
+            self.points[row, col] += 1
+
+    def _predicate(self, where: str, name: str) -> None:
+        self.c[f"{where}_predicates"][name] += 1
+        self.c[f"{where}_predicate_families"][self.families.get(name, "unregistered")] += 1
+
+
+def predicate_families() -> dict[str, str]:
+    """Predicate -> family from the registry, so a newly registered predicate is grouped at once."""
+    from .relations import PREDICATES
+
+    return {name: p.family for name, p in PREDICATES.items()}
+
+
+def answer_label(qa: dict) -> str:
+    """The answer letter plus its option when that is one word: "(A) yes", "(B) right";
+    longer options ("(A) the blue vase") differ per question and are left out."""
+    m = re.search(re.escape(qa["answer"]) + r" (\w+)(?= \([A-Z]\)|[?.]?$)", qa["question"])
+    return f"{qa['answer']} {m.group(1)}" if m else qa["answer"]
+
+
 def collect(root: Path) -> dict:
     manifest = load_manifest(root)
-    c = {name: Counter() for name in ("qa_predicates", "relation_predicates", "steps", "families", "kinds",
-                                       "categories", "colors", "objects_per_record", "answers")}
+    tally = _Tally()
     for shard in manifest["shards"]:
         for sample in ShardReader(Path(root) / shard["file"]).iter(fields=()):
-            objects = sample["scene"]["objects"]
-            c["objects_per_record"][len(objects)] += 1
-            c["categories"].update(o["category"] for o in objects)
-            c["colors"].update(o["color"] for o in objects)
-            c["relation_predicates"].update(r["predicate"] for r in sample["relations"])
-            for qa in sample["qa"]:
-                c["families"][qa["family"]] += 1
-                c["kinds"][qa["kind"]] += 1
-                c["steps"][qa["num_steps"]] += 1
-                c["qa_predicates"].update(qa["predicates"])
-                if qa["kind"] != "point":
-                    c["answers"][qa["answer"]] += 1
-    return {
+            tally.add_record(sample)
+    stats = {
+        "recipe": manifest["recipe"],
         "scenes": manifest["scenes"],
         "records": manifest["records"],
         "qa": manifest["qa"],
         "shards": len(manifest["shards"]),
         "rejected": {k: manifest["rejected"][k] for k in ("count", "rate", "reasons")},
+        "rejected_by_recipe": rejections_by_recipe(manifest),
         "qa_per_record": round(manifest["qa"] / manifest["records"], 2) if manifest["records"] else 0.0,
-        **{name: _sorted(counter) for name, counter in c.items()},
+        **{name: _sorted(counter) for name, counter in tally.c.items()},
+        "answers_by_kind": {k: _sorted(v) for k, v in sorted(tally.answers_by_kind.items())},
+        "answer_options": dict(sorted(tally.answer_options.items())),
+        "visible_share": {"edges_pct": list(VISIBLE_SHARE_EDGES_PCT), "counts": tally.visible_share.tolist()},
+        "answer_points": _points_summary(tally.points),
     }
+    stats["question_words"] = _by_number(stats["question_words"])
+    stats["balance"] = balance_checks(stats)
+    stats["warnings"] = [b["message"] for b in stats["balance"] if b["verdict"] == "warn"]
+    return stats
+
+
+def rejections_by_recipe(manifest: dict) -> dict[str, dict]:
+    """Rejected scenes per recipe. A manifest holds one recipe, so this is one entry keyed by
+    it; the shape lets a report lay several datasets' rows side by side."""
+    r = manifest["rejected"]
+    return {manifest["recipe"]: {"scenes": manifest["scenes"], "count": r["count"], "rate": r["rate"],
+                                 "reasons": dict(r["reasons"])}}
+
+
+def _points_summary(grid: np.ndarray) -> dict:
+    k = HEATMAP_BINS // 3
+    grid3 = grid.reshape(3, k, 3, k).sum(axis=(1, 3))
+    return {"bins": HEATMAP_BINS, "count": int(grid.sum()), "grid": grid.tolist(), "grid3": grid3.tolist()}
 
 
 def _sorted(counter: Counter) -> dict:
     return {str(k): v for k, v in sorted(counter.items(), key=lambda kv: (-kv[1], str(kv[0])))}
+
+
+def _by_number(counts: dict) -> dict:
+    return {k: counts[k] for k in sorted(counts, key=int)}
+
+
+# --- balance --------------------------------------------------------------------------------------
+
+
+def wilson_lower(k: int, n: int, z: float = CONFIDENCE_Z) -> float:
+    """Lower end of the Wilson score interval of the share k/n (0 when n is 0)."""
+    if n == 0:
+        return 0.0
+    p = k / n
+    centre = p + z * z / (2 * n)
+    spread = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return (centre - spread) / (1 + z * z / n)
+
+
+def _check(check: str, what: str, counts: dict[str, int], threshold: float) -> dict:
+    """One balance row: the most common item, its share, and a verdict.
+
+    "warn": the share's 95 % lower bound is above the threshold (dominance beyond noise);
+    "watch": the share is above it but within noise; "ok"; "no data".
+    """
+    n = sum(counts.values())
+    if n == 0:
+        return {"check": check, "item": None, "count": 0, "total": 0, "share": 0.0, "lower": 0.0,
+                "threshold": threshold, "verdict": "no data", "message": f"{what}: no data"}
+    item, k = max(counts.items(), key=lambda kv: (kv[1], kv[0]))
+    share, lower = k / n, wilson_lower(k, n)
+    verdict = "warn" if lower > threshold else ("watch" if share > threshold else "ok")
+    message = (f"{what}: {item} holds {share:.0%} ({k} of {n}; 95% lower bound {lower:.0%}), "
+               f"threshold {threshold:.0%}")
+    return {"check": check, "item": item, "count": k, "total": n, "share": round(share, 4),
+            "lower": round(lower, 4), "threshold": threshold, "verdict": verdict, "message": message}
+
+
+def answer_threshold(stats: dict, kind: str) -> float:
+    """Fair share of one letter plus ANSWER_MARGIN; a kind of unknown option count counts as two."""
+    options = max(stats.get("answer_options", {}).get(kind, 2), 2)
+    return round(1 / options + ANSWER_MARGIN, 4)
+
+
+def balance_checks(stats: dict) -> list[dict]:
+    """Every balance check on a stats dict (as ``collect`` returns or a crafted one)."""
+    rows = [_check("predicate", "QA predicates", stats["qa_predicates"], PREDICATE_SHARE_MAX)]
+    for kind, counts in stats.get("answers_by_kind", {}).items():
+        rows.append(_check(f"answer:{kind}", f"{kind} answers", counts, answer_threshold(stats, kind)))
+    grid3 = stats.get("answer_points", {}).get("grid3", [[0] * 3] * 3)
+    cells = {f"{r}{c} cell": grid3[i][j] for i, r in enumerate(("top", "middle", "bottom"))
+             for j, c in enumerate(("-left", "-centre", "-right"))}
+    rows.append(_check("region", "answer points per 3x3 image cell", cells, REGION_SHARE_MAX))
+    return rows
 
 
 def format_text(stats: dict) -> str:
@@ -63,9 +227,11 @@ def format_text(stats: dict) -> str:
     for title, key in (("QA per family", "families"), ("QA per kind", "kinds"), ("QA per step count", "steps"),
                        ("QA per predicate", "qa_predicates"), ("true relations per predicate", "relation_predicates"),
                        ("choice answers", "answers"), ("objects per category", "categories"),
-                       ("objects per colour", "colors"), ("records by object count", "objects_per_record")):
+                       ("objects per colour", "colors"), ("records by object count", "objects_per_record"),
+                       ("objects by visibility", "visibility_status")):
         lines.append(f"{title}:")
         counts = stats[key]
         total = sum(counts.values()) or 1
         lines.extend(f"  {k:<24} {v:>8}  {v / total:6.1%}" for k, v in counts.items())
+    lines.extend(f"warning: {w}" for w in stats.get("warnings", []))
     return "\n".join(lines)

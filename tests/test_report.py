@@ -1,0 +1,150 @@
+"""The audit report and the aggregates behind it: self-contained HTML, balance warnings, determinism."""
+
+import base64
+import re
+
+import cv2
+import numpy as np
+import pytest
+
+from refspatial.assets import load_catalogue
+from refspatial.recipe import load_recipe
+from refspatial.report import ReportError, render_html, write_report
+from refspatial.shards import generate
+from refspatial.stats import (ANSWER_SHARE_MAX, PREDICATE_SHARE_MAX, REGION_SHARE_MAX, balance_checks, collect,
+                              load_manifest)
+
+from conftest import TINY
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report-dataset")
+    generate(out, load_recipe(str(TINY)), load_catalogue(), n_scenes=3, base_seed=11, workers=1, scenes_per_shard=2)
+    return out
+
+
+@pytest.fixture(scope="module")
+def stats(dataset):
+    return collect(dataset)
+
+
+@pytest.fixture(scope="module")
+def page(stats, dataset):
+    return render_html(stats, load_manifest(dataset))
+
+
+def test_stats_keep_the_keys_scripts_use_and_add_audits(stats):
+    for key in ("scenes", "records", "qa", "shards", "rejected", "qa_per_record", "qa_predicates",
+                "relation_predicates", "steps", "families", "kinds", "categories", "colors",
+                "objects_per_record", "answers"):
+        assert key in stats, key
+    assert sum(stats["steps"].values()) == stats["qa"]
+    objects = sum(stats["categories"].values())
+    assert sum(stats["visible_share"]["counts"]) == objects == sum(stats["visibility_status"].values())
+    points = stats["answer_points"]
+    assert points["count"] == sum(map(sum, points["grid"])) == sum(map(sum, points["grid3"]))
+    assert points["count"] >= stats["kinds"].get("point", 0) > 0
+    assert sum(stats["question_words"].values()) == stats["qa"]
+    assert set(stats["rejected_by_recipe"]) == {"tiny"}
+    assert {b["check"] for b in stats["balance"]} >= {"predicate", "region"}
+
+
+def test_report_is_self_contained(page):
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:|//)""", page, re.I)
+    assert "http://" not in page and "https://" not in page
+    images = re.findall(r'<img [^>]*src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
+    assert len(images) >= 7
+    for b64 in images:
+        raw = base64.b64decode(b64)
+        png = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_COLOR)
+        assert png is not None and png.shape[0] >= 100 and png.shape[1] >= 600
+        assert b"Software" not in raw and b"tIME" not in raw, "no version or time stamp in the PNG"
+    assert len(re.findall(r"<img ", page)) == len(images), "every image must be embedded"
+
+
+def test_report_lists_every_predicate_and_category(page, stats):
+    text = re.sub(r"base64,[A-Za-z0-9+/=]+", "", page)
+    assert stats["qa_predicates"] and stats["relation_predicates"]
+    for name in (*stats["qa_predicates"], *stats["relation_predicates"], *stats["categories"], *stats["colors"]):
+        assert f"<td>{name}</td>" in text, name
+
+
+def test_report_bytes_depend_on_the_data_only(dataset, page, tmp_path):
+    """A second collect and render (another process would do the same) gives the same bytes."""
+    again = write_report(collect(dataset), load_manifest(dataset), tmp_path / "sub" / "again.html")
+    assert again.read_bytes() == page.encode("utf-8")
+
+
+def test_report_path_must_be_a_writable_html_file(stats, dataset, tmp_path):
+    with pytest.raises(ReportError, match=r"ending in \.html"):
+        write_report(stats, load_manifest(dataset), tmp_path / "report.png")
+    (tmp_path / "blocker").write_text("a file, not a folder")
+    with pytest.raises(ReportError, match="cannot write it"):
+        write_report(stats, load_manifest(dataset), tmp_path / "blocker" / "report.html")
+
+
+def _crafted(predicates: dict, answers: dict, grid3: list) -> dict:
+    return {"qa_predicates": predicates, "answers_by_kind": answers,
+            "answer_points": {"grid3": grid3, "count": sum(map(sum, grid3))}}
+
+
+BALANCED = _crafted({"left_of": 30, "right_of": 28, "behind": 25, "in_front_of": 27, "between": 20},
+                    {"yes_no": {"(A) yes": 52, "(B) no": 48}, "pick": {"(A)": 49, "(B)": 51}},
+                    [[10, 12, 9], [11, 30, 12], [10, 11, 9]])
+UNBALANCED = _crafted({"left_of": 300, "right_of": 40, "behind": 30},
+                      {"yes_no": {"(A) yes": 20, "(B) no": 180}, "pick": {"(A)": 50, "(B)": 50}},
+                      [[1, 2, 1], [2, 200, 3], [1, 2, 1]])
+
+
+def test_balance_checks_fire_on_dominance_only():
+    assert [b for b in balance_checks(BALANCED) if b["verdict"] != "ok"] == []
+    warned = {b["check"]: b for b in balance_checks(UNBALANCED) if b["verdict"] == "warn"}
+    assert set(warned) == {"predicate", "answer:yes_no", "region"}
+    assert warned["predicate"]["item"] == "left_of" and warned["predicate"]["share"] > PREDICATE_SHARE_MAX
+    assert warned["answer:yes_no"]["item"] == "(B) no" and warned["answer:yes_no"]["share"] > ANSWER_SHARE_MAX
+    assert warned["region"]["item"] == "middle-centre cell" and warned["region"]["share"] > REGION_SHARE_MAX
+
+
+def test_answer_threshold_follows_the_option_count():
+    """Four boxes: a fair share is 25 %, so 40 % of 1000 answers dominates though it is under 60 %."""
+    counts = {"(A)": 400, "(B)": 200, "(C)": 200, "(D)": 200}
+    four = {**_crafted({}, {"box": counts}, [[0] * 3] * 3), "answer_options": {"box": 4}}
+    row = next(b for b in balance_checks(four) if b["check"] == "answer:box")
+    assert row["threshold"] == pytest.approx(0.25 + ANSWER_SHARE_MAX - 0.5) and row["verdict"] == "warn"
+    two = {**four, "answer_options": {"box": 2}}
+    assert next(b for b in balance_checks(two) if b["check"] == "answer:box")["verdict"] == "ok"
+
+
+def test_small_samples_are_watched_not_warned():
+    """24 of 38 answers (63 %) is above the threshold but within a fair coin's noise."""
+    rows = balance_checks(_crafted({}, {"pick": {"(A)": 14, "(B)": 24}}, [[0] * 3] * 3))
+    verdicts = {b["check"]: b["verdict"] for b in rows}
+    assert verdicts == {"predicate": "no data", "answer:pick": "watch", "region": "no data"}
+
+
+def test_warnings_reach_the_page(stats, dataset):
+    crafted = {**stats, "qa_predicates": UNBALANCED["qa_predicates"], "answers_by_kind": UNBALANCED["answers_by_kind"]}
+    crafted["balance"] = balance_checks(crafted)
+    crafted["warnings"] = [b["message"] for b in crafted["balance"] if b["verdict"] == "warn"]
+    page = render_html(crafted, load_manifest(dataset))
+    items = re.search(r"<ul class=warnings>(.*?)</ul>", page, re.S).group(1)
+    assert items.count("<li>") == len(crafted["warnings"]) >= 2
+    assert "QA predicates: left_of holds 81%" in items and "yes_no answers: (B) no holds 90%" in items
+    assert page.count("<tr class=warn>") == len(crafted["warnings"])
+
+
+def test_page_shows_the_datasets_own_warnings(page, stats):
+    items = re.search(r"<ul class=warnings>(.*?)</ul>", page, re.S).group(1)
+    if stats["warnings"]:
+        assert items.count("<li>") == len(stats["warnings"])
+    else:
+        assert items == "<li>none</li>"
+
+
+def test_answer_labels_name_one_word_options_only():
+    from refspatial.stats import answer_label
+
+    assert answer_label({"question": "Is it left of the cup? (A) yes (B) no", "answer": "(B)"}) == "(B) no"
+    assert answer_label({"question": "Which way? (A) left (B) right", "answer": "(A)"}) == "(A) left"
+    assert answer_label({"question": "Which is taller: (A) the red cup or (B) the vase?", "answer": "(A)"}) == "(A)"
