@@ -80,7 +80,10 @@ def _frame_one(name: str, corners: np.ndarray, aim: np.ndarray, spec: dict, rng:
         if not fits(d_hi):
             continue
         d_min = d_lo if fits(d_lo) else _bisect(fits, d_lo, d_hi)
-        return camera_at(float(rng.uniform(d_min, d_hi)))
+        # "fill" places the camera between the tightest framing (0) and the farthest allowed (1):
+        # close framings spread objects over the image instead of piling them in its centre.
+        lo, hi = spec["fill"]
+        return camera_at(d_min + float(rng.uniform(lo, hi)) * (d_hi - d_min))
     raise SceneRejected("no_camera_view", f"no {name} within the height band shows every object")
 
 

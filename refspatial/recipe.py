@@ -134,6 +134,7 @@ SCHEMA: dict[str, dict[str, Callable[[Any], str | None]]] = {
         "height_above_table_m": _range(0.05, 10),
         "fovy_deg": _range(10, 120),
         "margin_px": _scalar(0, 1000, integer=True),
+        "fill": _range(0, 1),
         "attempts": _scalar(1, 1000, integer=True),
     },
     "light": {

@@ -8,6 +8,7 @@ executed on the view, never a value computed beside it.
 
 from __future__ import annotations
 
+import json
 from typing import Callable
 
 import numpy as np
@@ -54,10 +55,16 @@ def questions_for_view(view: ViewFacts, spec: dict, rng: np.random.Generator, ke
         steps = int(weighted(spec["steps"], rng))
         for _attempt in range(spec["attempts_per_question"]):
             qa = FAMILIES[family](views, spec, steps, rng)
-            if qa is not None and qa["question"] not in seen:
-                seen.add(qa["question"])
+            if qa is not None and _signature(qa) not in seen:
+                seen.add(_signature(qa))
                 if "images" in qa:
                     qa["images"] = [other[0] if v == "other" else key for v in qa["images"]]
                 out.append({"qa_id": f"{key}#{len(out)}", **qa})
                 break
     return out
+
+
+def _signature(qa: QA) -> str:
+    """What a question asks, regardless of wording: the same program asked twice is one question."""
+    program = [{k: v for k, v in n.items() if k != "text"} for n in qa["steps"]]
+    return json.dumps([qa["family"], qa["kind"] if qa["kind"] != "name" else "point", program], sort_keys=True)

@@ -101,9 +101,10 @@ def _region_words(book: Phrasebook, c: dict, words: list[str], rng) -> str:
         return book.pick(regions["between"], rng).format(a=a, b=words[c["anchors"][1]])
     if c["kind"] == "on_top":
         return book.pick(regions["on_top"], rng).format(a=a)
-    direction = book.pick(regions["directions"][c["direction"]], rng)
     if c["kind"] == "sector":
+        direction = book.pick(regions["directions"][c["direction"]], rng)
         return book.pick(regions["sector"], rng).format(dir=direction, a=a)
+    direction = book.pick(regions["offset_directions"][c["direction"]], rng)
     offset = f"{round(c['offset_m'] * 100)} cm"
     return book.pick(regions["offset"], rng).format(offset=offset, dir=direction, a=a)
 
