@@ -11,6 +11,9 @@ from .program import Node, execute
 from .refer import Ref, anchored_refs, compile_ref, simple_refs
 
 
+LONG_CHAIN = 4  # from this many steps on, a description may fall back to "the object ..."
+
+
 def describe_target(view: ViewFacts, target, steps: int, rng: np.random.Generator,
                     any_category: bool = False) -> Ref | None:
     """A description of the target with the wanted step count, or None."""
@@ -23,6 +26,9 @@ def describe_target(view: ViewFacts, target, steps: int, rng: np.random.Generato
             refs = refs[:1]
     else:
         refs = anchored_refs(view, target, steps, rng, Phrasebook.get().phrased, any_category)
+        if not refs and steps >= LONG_CHAIN and not any_category:
+            # Long chains rarely fit inside one category; "the object that ..." leaves room for them.
+            refs = anchored_refs(view, target, steps, rng, Phrasebook.get().phrased, any_category=True)
     return refs[int(rng.integers(len(refs)))] if refs else None
 
 
