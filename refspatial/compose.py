@@ -7,6 +7,8 @@ objects, so that every object really is in view.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .assets import Catalogue, build_asset
@@ -130,13 +132,18 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Gen
             if inside and not any(boxes_overlap(quad, q) for q in quads):
                 break
         else:
-            raise SceneRejected("crowded", f"no room for a {asset.name} after {PLACEMENT_TRIES} tries")
+            continue  # left out; the scene is rejected below only if too few objects remain
         quads.append(quad)
         z = table.top_z_m + spec["drop_height_m"]
         placed.append(PlacedObject(i, asset, Pose((float(x), float(y), z), yaw_quat(yaw))))
         if asset.cavity is not None or asset.support:
             hosts.append(placed[-1])
-    return tuple(sorted(placed, key=lambda o: o.object_id))
+    if len(placed) < spec["count"][0]:
+        missing = len(assets) - len(placed)
+        raise SceneRejected("crowded", f"{missing} of {len(assets)} objects found no room after {PLACEMENT_TRIES} tries")
+    # Ids stay 0..n-1 in draw order, whatever was left out.
+    kept = sorted(placed, key=lambda o: o.object_id)
+    return tuple(dataclasses.replace(o, object_id=k) for k, o in enumerate(kept))
 
 
 def _on_host(i: int, asset: Asset, hosts: list[PlacedObject], spec: dict, rng: np.random.Generator):
