@@ -160,10 +160,13 @@ def test_every_op_documents_itself():
 
 def test_families_on_a_hand_built_view():
     other = view(*MUGS.objects)
-    qa = questions_for_view(MUGS, {**SPEC, "per_view": 40}, np.random.default_rng(3), "k", ("k0", other))
+    qa = []
+    for seed in range(3):
+        batch = questions_for_view(MUGS, {**SPEC, "per_view": 40}, np.random.default_rng(seed), "k", ("k0", other))
+        assert len({q["question"] for q in batch}) == len(batch)
+        qa += batch
     families = {q["family"] for q in qa}
-    assert {"location", "identify", "choice", "quantitative", "visual_choice", "multiview"} <= families
-    assert len({q["question"] for q in qa}) == len(qa)
+    assert {"location", "identify", "choice", "quantitative", "visual_choice", "multiview", "placement"} <= families
     for q in qa:
         views = {"self": MUGS, "other": other}
         assert execute(strip(q["steps"]), views) == [n["result"] for n in q["steps"]]

@@ -151,26 +151,21 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
     ``phrased`` names the predicates the phrasebook can word. With ``any_category``
     the head is "the object" (identify-from-relations questions).
     """
-    anchors = {o.object_id: r[0] for o in view.askable() if o.object_id != target.object_id
-               and (r := simple_refs(view, o)[:1])}
-    parts = {
-        "unary": [Relation(n, ()) for n in relation_predicates(phrased, 1) if _holds(view, n, [target])],
-        "binary": _binary_parts(view, target, anchors, phrased),
-        "between": _between_parts(view, target, anchors) if "between" in phrased else [],
-    }
+    parts = _parts(view, target, phrased)
     heads = [None] if any_category else [None, target.color]
     category = None if any_category else target.category
     out: list[Ref] = []
     for color in heads:
-        head, sets = _kept_sets(view, category, color, parts)
-        combos = _fitting_combinations(target.object_id, head, sets, parts, COMBOS.get(steps, ()), rng)
+        head, scored = _scored_parts(view, target, category, color, parts)
+        combos = _fitting_combinations(target.object_id, head, scored, COMBOS.get(steps, ()), rng)
         # Choose the first part's predicate uniformly, so frequent relations do not crowd out rare ones.
         while combos and len(out) < 2:
-            names = sorted({c[0].predicate for c in combos})
+            names = sorted({c[0].rel.predicate for c in combos})
             name = names[int(rng.integers(len(names)))]
-            same = [c for c in combos if c[0].predicate == name]
-            rels = same[int(rng.integers(len(same)))]
-            combos.remove(rels)
+            same = [c for c in combos if c[0].rel.predicate == name]
+            chosen = same[int(rng.integers(len(same)))]
+            combos.remove(chosen)
+            rels = tuple(p.rel for p in chosen)
             ref = Ref(target.object_id, category, "object" if any_category else target.name, color, relations=rels)
             if resolves(ref, view):  # the sets already say it fits; the program is the final word
                 out.append(ref)
@@ -179,20 +174,66 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
     return out
 
 
-def _fitting_combinations(target: int, head: frozenset, sets, parts, shapes, rng) -> list[tuple[Relation, ...]]:
+@dataclass(frozen=True, eq=False)
+class _Part:
+    """A relation part with what it does to one head's candidates (precomputed for fast search)."""
+
+    rel: Relation
+    anchors: frozenset
+    kept: frozenset  # candidates it keeps
+    undecided: frozenset  # candidates it cannot decide
+
+
+def _parts(view: ViewFacts, target: ObjectFacts, phrased: set[str]) -> dict[str, list[Relation]]:
+    """Relation parts that hold for the target, by kind (memoised per view and target)."""
+    key = ("parts", target.object_id)
+    if key not in view.cache:
+        anchors = {o.object_id: r[0] for o in view.askable() if o.object_id != target.object_id
+                   and (r := simple_refs(view, o)[:1])}
+        view.cache[key] = {
+            "unary": [Relation(n, ()) for n in relation_predicates(phrased, 1) if _holds(view, n, [target])],
+            "binary": _binary_parts(view, target, anchors, phrased),
+            "between": _between_parts(view, target, anchors) if "between" in phrased else [],
+        }
+    return view.cache[key]
+
+
+def _scored_parts(view: ViewFacts, target: ObjectFacts, category: str | None, color: str | None, parts):
+    """The head's candidates and, per kind, the parts that keep the target (memoised per view)."""
+    key = ("scored", target.object_id, category, color)
+    if key not in view.cache:
+        head, sets = _kept_sets(view, category, color, parts)
+        scored = {kind: [_Part(r, frozenset(a.object_id for a in r.anchors), *sets[r])
+                         for r in rels if r in sets and target.object_id in sets[r][0]]
+                  for kind, rels in parts.items()}
+        view.cache[key] = (head, scored)
+    return view.cache[key]
+
+
+def _fitting_combinations(target: int, head: frozenset, scored, shapes, rng) -> list[tuple[_Part, ...]]:
     """Every combination of parts with a wanted shape that, by the candidate sets, picks only the
-    target with no idle part (checking at most COMBOS_CHECKED, in random order)."""
+    target with no idle part (checking at most COMBOS_CHECKED per shape, in random order)."""
     found = []
     for shape in shapes:
-        lists = [[parts[kind][int(i)] for i in rng.permutation(len(parts[kind]))] for kind in shape]
-        lists = [[r for r in options if r in sets and target in sets[r][0]] for options in lists]
-        for rels in islice(product(*lists), COMBOS_CHECKED):
-            anchor_ids = [a.object_id for r in rels for a in r.anchors]
-            if len(set(anchor_ids)) != len(anchor_ids) or len({r.predicate for r in rels}) != len(rels):
+        lists = [[scored[kind][int(i)] for i in rng.permutation(len(scored[kind]))] for kind in shape]
+        for combo in islice(product(*lists), COMBOS_CHECKED):
+            if len(combo) > 1 and not _independent(combo):
                 continue
-            if _picks_only(target, head, [sets[r] for r in rels]):
-                found.append(rels)
+            if _picks_only(target, head, [(p.kept, p.undecided) for p in combo]):
+                found.append(combo)
     return found
+
+
+def _independent(combo: tuple[_Part, ...]) -> bool:
+    """Distinct anchors and distinct predicates across the parts."""
+    anchors: set = set()
+    names: set = set()
+    for p in combo:
+        if anchors & p.anchors or p.rel.predicate in names:
+            return False
+        anchors |= p.anchors
+        names.add(p.rel.predicate)
+    return True
 
 
 def _kept_sets(view: ViewFacts, category: str | None, color: str | None, parts):
