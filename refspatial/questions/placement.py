@@ -34,6 +34,8 @@ def placement(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.rando
     if len(candidates) < need:
         return None
     chosen = [candidates[int(i)] for i in rng.choice(len(candidates), size=need, replace=False)]
+    if shape[0] == "between":  # "between A and B" and "between B and A" ask the same thing: one order
+        chosen[:2] = sorted(chosen[:2], key=lambda o: o.object_id)
     refs = [simple_refs(view, o)[:1] for o in chosen]
     if not all(refs):
         return None
