@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 SCENES ?= 1000
 WORKERS ?= $(shell nproc 2>/dev/null || echo 1)
 
-.PHONY: all venv sysdeps demo test shards bench clean
+.PHONY: all venv sysdeps demo test shards bench assets-sheet clean
 
 all: test
 
@@ -44,6 +44,10 @@ shards: venv
 
 bench: venv
 	$(BIN)/python benchmarks/bench.py
+
+# The contact sheet of every asset category (docs/assets.png).
+assets-sheet: venv
+	$(BIN)/python scene_assets/contact_sheet.py
 
 clean:
 	rm -rf $(VENV) data/demo .pytest_cache

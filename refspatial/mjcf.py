@@ -46,12 +46,29 @@ def build_spec(scene: Scene, materials: dict[str, MaterialSpec], opts: SpecOptio
     _visual_settings(spec, scene, opts)
     _add_room(spec, scene)
     for name, m in materials.items():
-        spec.add_material(name=f"mat_{name}", specular=m.specular, shininess=m.shininess, reflectance=m.reflectance)
+        _add_material(spec, f"mat_{name}", m)
     for obj in scene.objects:
         _add_object(spec, obj, opts)
     for cam in scene.cameras:
         spec.worldbody.add_camera(name=cam.name, pos=cam.pos_world_m, quat=cam.quat_wxyz, fovy=cam.fovy_deg)
     return spec
+
+
+def _add_material(spec: mujoco.MjSpec, name: str, m: MaterialSpec) -> None:
+    """A catalogue material, with its builtin texture when it has one (wood grain, brushed metal...)."""
+    mat = spec.add_material(name=name, specular=m.specular, shininess=m.shininess, reflectance=m.reflectance)
+    t = m.texture
+    if t is None:
+        return
+    builtin = {"gradient": mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, "checker": mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+               "flat": mujoco.mjtBuiltin.mjBUILTIN_FLAT}[t.builtin]
+    mark = {"none": mujoco.mjtMark.mjMARK_NONE, "edge": mujoco.mjtMark.mjMARK_EDGE,
+            "cross": mujoco.mjtMark.mjMARK_CROSS, "random": mujoco.mjtMark.mjMARK_RANDOM}[t.mark]
+    spec.add_texture(name=f"{name}_tex", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=builtin, mark=mark,
+                     random=t.random, rgb1=list(t.rgb1), rgb2=list(t.rgb2), markrgb=list(t.markrgb),
+                     width=t.size_px, height=t.size_px)
+    mat.texrepeat, mat.texuniform = list(t.repeat), True
+    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = f"{name}_tex"
 
 
 def _visual_settings(spec: mujoco.MjSpec, scene: Scene, opts: SpecOptions) -> None:

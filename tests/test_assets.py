@@ -1,10 +1,12 @@
-"""Tests for refspatial.assets: the shipped catalogue, shape conventions, collision parts,
-determinism, catalogue validation and loading every mesh into MuJoCo."""
+"""Tests for refspatial.assets and refspatial.shapes: the shipped catalogue, shape conventions,
+sizes, semantic fronts, collision parts, container cavities and supports, determinism,
+catalogue validation, and every category compiled, dropped and filled in MuJoCo."""
 
 from __future__ import annotations
 
 import copy
 import hashlib
+import math
 import random
 from pathlib import Path
 from typing import Callable
@@ -22,16 +24,27 @@ from refspatial.assets import (  # noqa: E402
     Catalogue,
     CatalogueError,
     build_asset,
+    evaluate,
     load_catalogue,
 )
+from refspatial.mjcf import DENSITY_KG_M3, FRICTION  # noqa: E402
 from refspatial.paths import assets_dir  # noqa: E402
 from refspatial.scene import Asset  # noqa: E402
 
-SEEDS = (0, 1, 2, 3)
-REQUIRED_CATEGORIES = set("mug cup bowl plate bottle can box book apple banana vase teddy_bear toy_block".split())
+SEEDS = (0, 1, 2)
+ORIGINAL = "mug cup bowl plate bottle can box book apple banana vase teddy_bear toy_block"
+ADDED = (
+    "wine_glass fork spoon knife jar teapot pan pot cutting_board sponge basket tray plant_pot tissue_box "
+    "pen_holder orange lemon bread cake donut toy_car ball rubber_duck stapler pencil glasses_case clock "
+    "candle lamp laptop keyboard phone remote mouse scissors hammer screwdriver"
+)
+REQUIRED_CATEGORIES = set(ORIGINAL.split()) | set(ADDED.split())
+REQUIRED_GROUPS = set("kitchen dining office toys food tools electronics containers decor".split())
 REQUIRED_COLORS = set("red orange yellow green blue purple pink brown black white gray silver".split())
 REQUIRED_MATERIALS = set("matte glossy ceramic metal plastic wood paper organic".split())
-HOLLOW = ("mug", "cup", "bowl")
+CONTAINERS = ("mug", "cup", "bowl", "jar", "pan", "pot", "basket", "tray", "plant_pot")  # open, with a cavity
+SUPPORTS = ("plate", "book", "box", "cutting_board", "tray", "toy_block")
+BODY_CENTRED = ("mug", "teapot", "pan", "lamp")  # a handle, spout or arm sticks out: the body sits on the axis
 MM = 1e-3
 
 
@@ -55,6 +68,13 @@ def _tri(mesh) -> trimesh.Trimesh:
 
 
 CATEGORIES = sorted(REQUIRED_CATEGORIES)
+FOOD_COLORS = {  # what fruit and food may plausibly be called
+    "apple": {"red", "green", "yellow"},
+    "banana": {"yellow", "green", "brown"},
+    "orange": {"orange", "yellow", "green"},
+    "lemon": {"yellow", "green"},
+    "bread": {"brown", "orange", "yellow", "white"},
+}
 
 
 # ---------------------------------------------------------------- the shipped catalogue
@@ -63,20 +83,37 @@ CATEGORIES = sorted(REQUIRED_CATEGORIES)
 def test_shipped_catalogue_has_the_required_words_and_categories(catalogue: Catalogue) -> None:
     assert REQUIRED_COLORS <= set(catalogue.colors)
     assert REQUIRED_MATERIALS <= set(catalogue.materials)
-    assert REQUIRED_CATEGORIES <= set(catalogue.categories)
+    assert REQUIRED_CATEGORIES <= set(catalogue.categories) and len(catalogue.categories) >= 40
+    assert REQUIRED_GROUPS <= set(catalogue.groups or {})
     for spec in catalogue.categories.values():
-        assert len(spec.colors) >= 3, spec.key
+        assert len(spec.colors) >= (2 if spec.group == "food" else 3), spec.key
         assert spec.builder in BUILDERS
         assert np.allclose(spec.front_vector, (1, 0, 0)), "+x is the semantic front by convention"
+    groups = [spec.group for spec in catalogue.categories.values()]
+    assert all(groups.count(group) >= 3 for group in REQUIRED_GROUPS), groups
+    assert {k for k, s in catalogue.categories.items() if s.cavity} == set(CONTAINERS)
+    assert {k for k, s in catalogue.categories.items() if s.support} == set(SUPPORTS)
     assert catalogue.sha256 == hashlib.sha256((assets_dir() / "catalogue.yaml").read_bytes()).hexdigest()
 
 
 def test_shipped_colours_are_plausible(catalogue: Catalogue) -> None:
     assert catalogue.categories["banana"].colors and "blue" not in catalogue.categories["banana"].colors
-    assert set(catalogue.categories["apple"].colors) <= {"red", "green", "yellow"}
+    for key, allowed in FOOD_COLORS.items():
+        assert set(catalogue.categories[key].colors) <= allowed, key
+    for spec in catalogue.categories.values():
+        assert spec.group != "food" or not {"blue", "purple", "gray", "silver", "black"} & set(spec.colors), spec.key
     rgb = {k: np.array(v) for k, v in catalogue.colors.items()}
     assert rgb["red"].argmax() == 0 and rgb["green"].argmax() == 1 and rgb["blue"].argmax() == 2
     assert rgb["white"].min() > 0.85 and rgb["black"].max() < 0.15
+
+
+def test_textures_shade_without_renaming_the_colour(catalogue: Catalogue) -> None:
+    """MuJoCo multiplies texture and colour: textures stay near white, so a red mug stays red."""
+    textured = {name for name, m in catalogue.materials.items() if m.texture is not None}
+    assert {"wood", "metal", "paper"} <= textured
+    for name in textured:
+        t = catalogue.materials[name].texture
+        assert min(*t.rgb1, *t.rgb2, *t.markrgb) >= 0.6 and max(t.rgb1) == 1.0, name
 
 
 def test_every_builder_docstring_names_its_params() -> None:
@@ -98,6 +135,8 @@ def test_asset_fields(catalogue: Catalogue, built: dict, category: str) -> None:
         assert asset.rgba == (*catalogue.colors[asset.color], 1.0)
         assert np.isclose(np.linalg.norm(asset.front_local), 1.0)
         assert set(asset.params) == set(spec.params)
+        assert asset.support == spec.support and (asset.cavity is None) == (spec.cavity is None)
+        assert asset.licence == "project-own (procedural)"
         for name, value in asset.params.items():
             lo, hi = spec.params[name]
             assert lo <= value <= hi, (name, value)
@@ -121,9 +160,11 @@ def test_object_frame_rests_on_z0_with_footprint_centred(built: dict, category: 
         lo, hi = asset.visual.bounds_m
         assert abs(lo[2]) < 1e-6
         centre = (lo + hi)[:2] / 2
-        if category == "mug":  # the handle sticks out on +x: the body is centred instead
-            r = asset.params["radius_m"]
-            assert abs(lo[0] + r) < MM and abs(centre[1]) < MM
+        if category in BODY_CENTRED:  # the patch it stands on is centred, not the whole footprint
+            v = asset.visual.vertices_m
+            base = v[v[:, 2] < 0.5 * MM]
+            assert len(base) >= 3 and np.all(np.abs((base.min(axis=0) + base.max(axis=0))[:2] / 2) < MM)
+            assert abs(centre[1]) < MM
         else:
             assert np.all(np.abs(centre) < MM), centre
 
@@ -143,7 +184,60 @@ EXTENTS: dict[str, Callable[[dict], tuple]] = {
     "vase": lambda p: (2 * p["radius_m"], 2 * p["radius_m"], p["height_m"]),
     "teddy_bear": lambda p: (None, None, p["height_m"]),
     "toy_block": lambda p: (p["size_m"], p["size_m"], p["size_m"]),
+    "wine_glass": lambda p: (2 * p["radius_m"], 2 * p["radius_m"], p["height_m"]),
+    "fork": lambda p: (p["length_m"], None, p["thickness_m"]),
+    "spoon": lambda p: (p["length_m"], p["bowl_width_m"], None),
+    "knife": lambda p: (p["length_m"], None, p["handle_thickness_m"]),
+    "jar": lambda p: (2 * p["radius_m"], 2 * p["radius_m"], p["height_m"]),
+    "teapot": lambda p: (None, None, p["height_m"]),
+    "pan": lambda p: (None, 2 * p["radius_m"], None),
+    "pot": lambda p: (2 * p["radius_m"], None, p["height_m"]),
+    "cutting_board": lambda p: (p["length_m"], p["width_m"], p["thickness_m"]),
+    "sponge": lambda p: (p["length_m"], p["width_m"], p["height_m"]),
+    "basket": lambda p: (None, None, p["height_m"]),
+    "tray": lambda p: (p["length_m"], p["width_m"], p["height_m"]),
+    "plant_pot": lambda p: (2 * p["radius_m"], 2 * p["radius_m"], p["height_m"]),
+    "tissue_box": lambda p: (p["width_m"], p["length_m"], None),
+    "pen_holder": lambda p: (None, None, None),
+    "orange": lambda p: (None, None, None),
+    "lemon": lambda p: (None, None, None),
+    "bread": lambda p: (p["length_m"], p["width_m"], p["height_m"]),
+    "cake": lambda p: (None, 2 * p["radius_m"], None),
+    "donut": lambda p: (2 * p["radius_m"], 2 * p["radius_m"], None),
+    "toy_car": lambda p: (p["length_m"], None, p["height_m"]),
+    "ball": lambda p: (None, None, None),
+    "rubber_duck": lambda p: (None, None, None),
+    "stapler": lambda p: (p["length_m"], p["width_m"], p["height_m"]),
+    "pencil": lambda p: (p["length_m"], None, None),
+    "glasses_case": lambda p: (None, p["length_m"], p["height_m"]),
+    "clock": lambda p: (None, None, None),
+    "candle": lambda p: (2 * p["radius_m"], 2 * p["radius_m"], None),
+    "lamp": lambda p: (None, None, p["height_m"]),
+    "laptop": lambda p: (None, p["width_m"], None),
+    "keyboard": lambda p: (p["depth_m"], p["width_m"], None),
+    "phone": lambda p: (p["length_m"], p["width_m"], p["thickness_m"]),
+    "remote": lambda p: (p["length_m"], p["width_m"], None),
+    "mouse": lambda p: (p["length_m"], None, None),
+    "scissors": lambda p: (p["length_m"], None, None),
+    "hammer": lambda p: (p["length_m"], None, None),
+    "screwdriver": lambda p: (p["length_m"], None, None),
 }
+# (lowest, highest) ratio of each extent to a characteristic parameter, where no one parameter fixes it
+RATIOS: dict[str, tuple[str, tuple[tuple[float, float] | None, ...]]] = {
+    "orange": ("radius_m", ((1.9, 2.1), (1.9, 2.1), (1.7, 2.05))),
+    "lemon": ("radius_m", ((2.5, 4.0), (1.9, 2.1), (1.85, 2.05))),
+    "ball": ("radius_m", ((1.9, 2.02), (1.9, 2.02), (1.9, 2.02))),
+    "rubber_duck": ("length_m", ((1.0, 1.2), (0.6, 0.85), (0.7, 0.95))),
+    "clock": ("radius_m", ((0.6, 1.0), (1.8, 2.2), (2.2, 2.7))),
+    "pen_holder": ("radius_m", ((2.0, 3.0), (2.0, 3.0), (3.0, 4.5))),
+    "teapot": ("radius_m", ((2.5, 3.6), (1.9, 2.1), None)),
+    "laptop": ("depth_m", ((1.1, 1.6), None, (0.85, 1.05))),
+    "pan": ("radius_m", ((2.5, 4.0), None, (0.5, 0.9))),
+}
+
+
+def test_every_category_has_its_size_rule(catalogue: Catalogue) -> None:
+    assert set(EXTENTS) == set(catalogue.categories) == set(CATEGORIES)
 
 
 @pytest.mark.parametrize("category", CATEGORIES)
@@ -152,6 +246,11 @@ def test_sizes_follow_the_sampled_params(built: dict, category: str) -> None:
         for axis, want in enumerate(EXTENTS[category](asset.params)):
             if want is not None:
                 assert abs(asset.size_m[axis] - want) < MM, (axis, asset.size_m, want)
+        if category in RATIOS:
+            name, bounds = RATIOS[category]
+            for axis, band in enumerate(bounds):
+                ratio = asset.size_m[axis] / asset.params[name]
+                assert band is None or band[0] <= ratio <= band[1], (axis, ratio, band)
 
 
 def test_free_shapes_have_plausible_sizes(built: dict) -> None:
@@ -166,22 +265,69 @@ def test_free_shapes_have_plausible_sizes(built: dict) -> None:
         assert 0.3 < asset.size_m[0] / asset.size_m[2] < 0.9 and 0.3 < asset.size_m[1] / asset.size_m[2] < 0.9
 
 
-def test_front_features_point_to_plus_x(built: dict) -> None:
-    for asset in _assets_of(built, "mug"):  # handle beyond the body on +x only
-        v = asset.visual.vertices_m
-        assert v[:, 0].max() > asset.params["radius_m"] + asset.params["handle_reach_m"] - MM
-        assert v[:, 0].min() > -asset.params["radius_m"] - 1e-6
-    for asset in _assets_of(built, "teddy_bear"):  # the muzzle sticks out of the head on +x
-        v, h = asset.visual.vertices_m, asset.size_m[2]
-        crown = v[v[:, 2] > 0.85 * h]
-        cx = (crown[:, 0].max() + crown[:, 0].min()) / 2
-        face = v[(v[:, 2] > 0.55 * h) & (v[:, 2] < 0.8 * h)]
-        assert face[:, 0].max() - cx > cx - face[:, 0].min() + 0.03 * h
-    for asset in _assets_of(built, "banana"):  # a thin stalk ends the +x side; the -x tip swells at once
-        v = asset.visual.vertices_m
-        span = np.ptp(v[:, 0])
-        stem, tip = v[v[:, 0] > v[:, 0].max() - 0.08 * span], v[v[:, 0] < v[:, 0].min() + 0.08 * span]
-        assert tip[:, 2].max() > 1.3 * stem[:, 2].max()
+def _end(v: np.ndarray, axis: int, share: float, high: bool) -> np.ndarray:
+    """Vertices in the last `share` of the extent along `axis`, at its high or low end."""
+    lo, hi = v[:, axis].min(), v[:, axis].max()
+    cut = hi - share * (hi - lo) if high else lo + share * (hi - lo)
+    return v[v[:, axis] >= cut] if high else v[v[:, axis] <= cut]
+
+
+def _mug(v, p, size):  # handle beyond the body on +x only
+    return v[:, 0].max() > p["radius_m"] + p["handle_reach_m"] - MM and v[:, 0].min() > -p["radius_m"] - 1e-6
+
+
+def _teddy(v, p, size):  # the muzzle sticks out of the head on +x
+    crown = v[v[:, 2] > 0.85 * size[2]]
+    cx = (crown[:, 0].max() + crown[:, 0].min()) / 2
+    face = v[(v[:, 2] > 0.55 * size[2]) & (v[:, 2] < 0.8 * size[2])]
+    return face[:, 0].max() - cx > cx - face[:, 0].min() + 0.03 * size[2]
+
+
+def _banana(v, p, size):  # a thin stalk ends the +x side; the -x tip swells at once
+    return _end(v, 0, 0.08, False)[:, 2].max() > 1.3 * _end(v, 0, 0.08, True)[:, 2].max()
+
+
+def _laptop(v, p, size):  # the screen stands at the back and leans back, so its display faces +x
+    top = v[v[:, 2] > 0.9 * size[2]]
+    return top[:, 0].max() < -0.5 * p["depth_m"] and v[:, 0].max() > 0.45 * p["depth_m"]
+
+
+def _cake(v, p, size):  # the cut: the +x end is two cut edges off the axis, the -x end is round
+    return abs(v[v[:, 0].argmax(), 1]) > 0.25 * p["radius_m"] and abs(v[v[:, 0].argmin(), 1]) < 0.1 * p["radius_m"]
+
+
+FRONT_CHECKS: dict[str, Callable[[np.ndarray, dict, np.ndarray], bool]] = {
+    "mug": _mug,
+    "teddy_bear": _teddy,
+    "banana": _banana,
+    "laptop": _laptop,
+    "cake": _cake,
+    "teapot": lambda v, p, s: (  # spout out on +x, handle on -x
+        v[:, 0].max() > p["radius_m"] + 0.8 * p["spout_m"] and v[:, 0].min() < -1.1 * p["radius_m"]
+    ),
+    "pan": lambda v, p, s: (  # the handle on +x, nothing beyond the rim on -x
+        v[:, 0].max() > p["radius_m"] + 0.9 * p["handle_length_m"] and v[:, 0].min() > -p["radius_m"] - 1e-6
+    ),
+    "lamp": lambda v, p, s: v[v[:, 2] > 0.5 * s[2]][:, 0].max() > p["base_radius_m"],  # the shade hangs in front
+    "scissors": lambda v, p, s: np.ptp(_end(v, 0, 0.1, True)[:, 1]) < 0.3 * np.ptp(_end(v, 0, 0.25, False)[:, 1]),
+    "fork": lambda v, p, s: np.ptp(_end(v, 0, 0.1, True)[:, 1]) > 1.25 * np.ptp(_end(v, 0, 0.1, False)[:, 1]),
+    "spoon": lambda v, p, s: v[v[:, 2].argmax(), 0] > 0,  # the bowl's rim is higher than the handle's end
+    "knife": lambda v, p, s: _end(v, 0, 0.3, True)[:, 2].max() < 0.5 * _end(v, 0, 0.3, False)[:, 2].max(),
+    "hammer": lambda v, p, s: np.ptp(_end(v, 0, 0.15, True)[:, 1]) > 3 * np.ptp(_end(v, 0, 0.15, False)[:, 1]),
+    "screwdriver": lambda v, p, s: np.ptp(_end(v, 0, 0.05, True)[:, 2]) < 0.5 * np.ptp(_end(v, 0, 0.05, False)[:, 2]),
+    "pencil": lambda v, p, s: np.ptp(_end(v, 0, 0.03, True)[:, 1]) < 0.6 * np.ptp(_end(v, 0, 0.03, False)[:, 1]),
+    "mouse": lambda v, p, s: v[v[:, 2].argmax(), 0] < 0,  # highest under the palm, sloping to the buttons
+    "keyboard": lambda v, p, s: _end(v, 0, 0.05, False)[:, 2].max() > _end(v, 0, 0.05, True)[:, 2].max() + 2 * MM,
+    "toy_car": lambda v, p, s: v[v[:, 2] > 0.95 * s[2]][:, 0].mean() < -0.05 * p["length_m"],  # cabin set back
+    "rubber_duck": lambda v, p, s: 0.5 * s[2] < v[v[:, 0].argmax(), 2] < 0.8 * s[2],  # the beak is the front tip
+}
+
+
+@pytest.mark.parametrize("category", sorted(FRONT_CHECKS))
+def test_front_features_point_to_plus_x(built: dict, category: str) -> None:
+    """The named front side (handle, spout, screen, blades, tip...) is where +x says it is."""
+    for asset in _assets_of(built, category):
+        assert FRONT_CHECKS[category](asset.visual.vertices_m, asset.params, asset.size_m), asset.params
 
 
 # ---------------------------------------------------------------- collision parts
@@ -219,28 +365,72 @@ def _inside_closed(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) 
     return np.concatenate(inside)
 
 
-@pytest.mark.parametrize("category", HOLLOW)
-def test_containers_keep_their_cavity_open(built: dict, category: str) -> None:
-    """Sample a vertical half-plane midway between two wall wedges (where chords cut in most),
-    away from the mug's handle. Of the cavity points (inside the visual's convex hull, outside
-    the visual) at most 8 % may lie in a collision part; one hull per wedge on the bowl's
-    curved wall would fill about 16 %."""
-    theta = np.radians(180 + 15)
+def _cavity_points(cav, n: int = 8, inset: float = 0.95) -> np.ndarray:
+    """A grid over the cavity volume, its cross-section shrunk by `inset` (the relation engine
+    calls things inside at 90 % of the half extents)."""
+    hx, hy = (inset * h for h in cav.half_extents_m)
+    zs = np.linspace(cav.floor_z_m + MM, cav.rim_z_m - MM, n)
+    x, y, z = np.meshgrid(np.linspace(-hx, hx, n), np.linspace(-hy, hy, n), zs)
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    if cav.shape == "cylinder":
+        points = points[np.hypot(points[:, 0] / hx, points[:, 1] / hy) <= 1.0]
+    return points
+
+
+def _in_any_part(asset: Asset, points: np.ndarray) -> np.ndarray:
+    filled = np.zeros(len(points), dtype=bool)
+    for part in asset.collision:
+        filled |= _inside_convex(part.vertices_m, part.faces, points)
+    return filled
+
+
+@pytest.mark.parametrize("category", CONTAINERS)
+def test_container_cavity_is_open_in_the_visual_and_in_physics(built: dict, category: str) -> None:
+    """The catalogue's cavity is empty of the visual mesh and of every collision part (so things
+    fit inside, in pictures and in physics), it stands on a solid floor, and its rim is the top
+    of the wall (the highest point of the wall on the -x side, away from handles)."""
     for asset in _assets_of(built, category)[:2]:
-        lo, hi = asset.visual.bounds_m
-        rr, zz = np.meshgrid(np.linspace(0, -lo[0], 28)[1:], np.linspace(0, hi[2], 28)[1:-1])
-        points = np.column_stack([rr.ravel() * np.cos(theta), rr.ravel() * np.sin(theta), zz.ravel()])
-        hull = _tri(asset.visual).convex_hull
-        in_hull = _inside_convex(hull.vertices, hull.faces, points)
-        cavity = points[in_hull & ~_inside_closed(asset.visual.vertices_m, asset.visual.faces, points)]
-        assert len(cavity) > 200
-        filled = np.zeros(len(cavity), dtype=bool)
-        for part in asset.collision:
-            filled |= _inside_convex(part.vertices_m, part.faces, cavity)
-        assert filled.mean() < 0.08, filled.mean()
-        floor = np.array([[0.0, 0.0, 0.001]])
-        assert any(_inside_convex(p.vertices_m, p.faces, floor)[0] for p in asset.collision)  # the base is solid
-        assert len(asset.collision) >= 9  # base + wall segments (+ handle)
+        cav = asset.cavity
+        assert cav is not None and cav.shape in ("cylinder", "box") and 0 <= cav.floor_z_m < cav.rim_z_m
+        points = _cavity_points(cav)
+        assert len(points) > 200
+        assert not _inside_closed(asset.visual.vertices_m, asset.visual.faces, points).any()
+        assert not _in_any_part(asset, points).any()
+        floor = np.array([[0.0, 0.0, cav.floor_z_m - MM]])
+        assert _inside_closed(asset.visual.vertices_m, asset.visual.faces, floor)[0] and _in_any_part(asset, floor)[0]
+        v = asset.visual.vertices_m
+        hx, hy = cav.half_extents_m
+        if cav.shape == "cylinder":
+            scale = np.hypot(v[:, 0] / hx, v[:, 1] / hy)
+        else:
+            scale = np.maximum(np.abs(v[:, 0]) / hx, np.abs(v[:, 1]) / hy)
+        wall = v[(scale > 1.0) & (v[:, 0] < 0)]
+        assert abs(wall[:, 2].max() - cav.rim_z_m) < 1.5 * MM, (wall[:, 2].max(), cav.rim_z_m)
+
+
+@pytest.mark.parametrize("category", CONTAINERS)
+def test_container_cavity_expression_matches_its_mesh_for_extreme_params(catalogue: Catalogue, category: str) -> None:
+    """The cavity expressions hold over the whole parameter range, not only for the seeds:
+    build at every range's minimum and at every range's maximum."""
+    spec = catalogue.categories[category]
+    for pick in (0, 1):
+        params = {name: bounds[pick] for name, bounds in spec.params.items()}
+        visual, parts = BUILDERS[spec.builder](params)
+        cav = spec.cavity.evaluate(params)  # type: ignore[union-attr]
+        points = _cavity_points(cav, n=7)
+        assert not _inside_closed(np.asarray(visual.vertices), np.asarray(visual.faces), points).any(), pick
+        for part in parts:
+            assert not _inside_convex(np.asarray(part.vertices), np.asarray(part.faces), points).any(), pick
+
+
+def test_cavity_expressions_evaluate() -> None:
+    params = {"radius_m": 0.04, "wall_m": 0.004, "height_m": 0.1}
+    assert evaluate("radius_m - wall_m", params) == pytest.approx(0.036)
+    assert evaluate("0.5*height_m + 0.01 - 2*wall_m", params) == pytest.approx(0.052)
+    assert evaluate("0.02", params) == pytest.approx(0.02)
+    for bad in ("radius_m * wall_m", "depth_m", "radius_m -", "", "1e-3"):
+        with pytest.raises(ValueError):
+            evaluate(bad, params)
 
 
 # ---------------------------------------------------------------- determinism and sampling
@@ -284,15 +474,23 @@ def test_pinned_colour_is_used_and_moves_no_other_draw(catalogue: Catalogue) -> 
 def test_disallowed_colour_or_unknown_category_raise(catalogue: Catalogue) -> None:
     with pytest.raises(ValueError, match=r"'blue'.*'banana'.*allowed: yellow, green, brown"):
         build_asset(catalogue, "banana", np.random.default_rng(0), color="blue")
-    with pytest.raises(ValueError, match="unknown category 'spoon'"):
-        build_asset(catalogue, "spoon", np.random.default_rng(0))
+    with pytest.raises(ValueError, match="unknown category 'spork'"):
+        build_asset(catalogue, "spork", np.random.default_rng(0))
 
 
 # ---------------------------------------------------------------- validation
 
 
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+
+
 def _shipped() -> dict:
-    return yaml.safe_load((assets_dir() / "catalogue.yaml").read_text())
+    return yaml.load((assets_dir() / "catalogue.yaml").read_text(), Loader=_LOADER)
+
+
+def _dump(doc: dict) -> str:
+    return yaml.dump(doc, Dumper=_DUMPER, sort_keys=False)
 
 
 def _set(*path: str, value: object) -> Callable[[dict], None]:
@@ -316,6 +514,8 @@ def _delete(*path: str) -> Callable[[dict], None]:
 
 
 MUG, CAN, BOOK = ("categories", "mug"), ("categories", "can"), ("categories", "book")
+WOOD_TEXTURE = ("materials", "wood", "texture")
+MESH_ENTRY = {"builder": "mesh", "mesh": "m.obj", "group": "dining", "materials": ["ceramic"]}
 BAD_ENTRIES = {  # case -> (edit of the shipped catalogue, pattern the one-line message must match)
     "unknown builder": (_set(*MUG, "builder", value="mugg"), r"categories\.mug\.builder: expected one of"),
     "unknown colour": (
@@ -357,9 +557,50 @@ BAD_ENTRIES = {  # case -> (edit of the shipped catalogue, pattern the one-line 
         r"materials\.metal\.specular: expected a number in \[0, 1\], got 2$",
     ),
     "material missing attribute": (_delete("materials", "wood", "shininess"), r"materials\.wood: missing key 'shininess'"),
+    "texture unknown builtin": (
+        _set(*WOOD_TEXTURE, "builtin", value="marble"),
+        r"materials\.wood\.texture\.builtin: expected one of gradient",
+    ),
+    "texture random out of range": (
+        _set(*WOOD_TEXTURE, "random", value=1.5),
+        r"materials\.wood\.texture\.random: expected a number in \[0, 1\]",
+    ),
+    "texture missing key": (_delete(*WOOD_TEXTURE, "repeat"), r"materials\.wood\.texture: missing key 'repeat'"),
     "wrong version": (_set("version", value=2), r"version: expected 1"),
     "missing section": (_delete("materials"), r"\(top level\): missing key 'materials'"),
     "empty categories": (_set("categories", value={}), r"categories: expected a non-empty mapping"),
+    "missing groups": (_delete("groups"), r"\(top level\): missing key 'groups'"),
+    "unknown group": (
+        _set(*MUG, "group", value="bathroom"),
+        r"categories\.mug\.group: expected a word defined under groups: .*got 'bathroom'",
+    ),
+    "missing group": (_delete(*CAN, "group"), r"categories\.can: missing key 'group'"),
+    "support not a flag": (
+        _set(*BOOK, "support", value="yes"), r"categories\.book\.support: expected true or false, got 'yes'",
+    ),
+    "unknown cavity shape": (
+        _set(*MUG, "cavity", "shape", value="sphere"), r"categories\.mug\.cavity\.shape: expected cylinder or box",
+    ),
+    "cavity missing key": (_delete(*MUG, "cavity", "rim_z"), r"categories\.mug\.cavity: missing key 'rim_z'"),
+    "cavity key of the other shape": (
+        _set(*MUG, "cavity", "half_x", value="radius_m"), r"categories\.mug\.cavity\.half_x: unknown key",
+    ),
+    "cavity unknown parameter": (
+        _set(*MUG, "cavity", "radius", value="radius_m - wall_thickness_m"),
+        r"categories\.mug\.cavity\.radius: 'wall_thickness_m' in .* is not a parameter \(parameters: radius_m",
+    ),
+    "cavity bad expression": (
+        _set(*MUG, "cavity", "floor_z", value="base_m * 2"),
+        r"categories\.mug\.cavity\.floor_z: cannot read 'base_m \* 2'",
+    ),
+    "mesh entry without a mesh file": (
+        _set("categories", "my_mug", value=dict(MESH_ENTRY, mesh="meshes/nowhere.obj")),
+        r"categories\.my_mug\.mesh: .*nowhere\.yaml: cannot read the annotation",
+    ),
+    "mesh entry with a name": (
+        _set("categories", "my_mug", value=dict(MESH_ENTRY, name="mug")),
+        r"categories\.my_mug\.name: unknown key; remove it or use one of builder, mesh, group, materials, annotation",
+    ),
 }
 
 
@@ -369,7 +610,7 @@ def test_bad_catalogue_entries_fail_at_load_with_one_line_naming_file_and_key(tm
     doc = copy.deepcopy(_shipped())
     edit(doc)
     path = tmp_path / "catalogue.yaml"
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    path.write_text(_dump(doc))
     with pytest.raises(CatalogueError, match=pattern) as info:
         load_catalogue(path)
     message = str(info.value)
@@ -387,7 +628,7 @@ def test_invalid_yaml_is_a_catalogue_error(tmp_path: Path) -> None:
 
 def test_a_valid_copy_loads_and_its_hash_is_of_the_bytes(tmp_path: Path) -> None:
     path = tmp_path / "catalogue.yaml"
-    path.write_text(yaml.safe_dump(_shipped(), sort_keys=False))
+    path.write_text(_dump(_shipped()))
     loaded = load_catalogue(path)
     assert loaded.sha256 == hashlib.sha256(path.read_bytes()).hexdigest()
     assert set(loaded.categories) == set(load_catalogue().categories)
@@ -396,28 +637,94 @@ def test_a_valid_copy_loads_and_its_hash_is_of_the_bytes(tmp_path: Path) -> None
 # ---------------------------------------------------------------- MuJoCo
 
 
+def _add_asset(spec: mujoco.MjSpec, name: str, asset: Asset, pos: tuple[float, float, float]) -> None:
+    """A free body with the asset's visual (no collision) and its convex parts, as mjcf.py does."""
+    body = spec.worldbody.add_body(name=name, pos=list(pos))
+    body.add_freejoint()
+    for k, mesh in enumerate((asset.visual, *asset.collision)):
+        spec.add_mesh(name=f"{name}_{k}", uservert=mesh.vertices_m.ravel(), userface=mesh.faces.ravel())
+        visual = k == 0
+        body.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_{k}", density=0 if visual else DENSITY_KG_M3,
+            contype=0 if visual else 1, conaffinity=0 if visual else 1, group=0 if visual else 3,
+            friction=list(FRICTION), condim=6,
+        )
+
+
+def _world(spacing: float, n: int) -> tuple[mujoco.MjSpec, list[tuple[float, float]]]:
+    spec = mujoco.MjSpec()
+    spec.option.timestep = 0.002
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1], friction=list(FRICTION), condim=6)
+    side = math.ceil(math.sqrt(n))
+    return spec, [(spacing * (i % side), spacing * (i // side)) for i in range(n)]
+
+
+def _run(spec: mujoco.MjSpec, seconds: float) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    while data.time < seconds:
+        mujoco.mj_step(model, data)
+    return model, data
+
+
+def _tilt_deg(quat: np.ndarray) -> float:
+    return float(np.degrees(2 * np.arccos(min(1.0, abs(quat[0])))))
+
+
 def test_every_mesh_compiles_and_rests_in_mujoco(built: dict) -> None:
     """One body per category: visual + collision meshes compile, and each object dropped
     in its resting pose stays upright on a plane (the pose as built is stable)."""
-    spec = mujoco.MjSpec()
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1])
     assets = [built[c, SEEDS[0]] for c in CATEGORIES]
-    for i, asset in enumerate(assets):
-        body = spec.worldbody.add_body(name=f"obj{i}", pos=[0.5 * i, 0, 0.001])
-        body.add_freejoint()
-        for k, mesh in enumerate((asset.visual, *asset.collision)):
-            spec.add_mesh(name=f"obj{i}_{k}", uservert=mesh.vertices_m.ravel(), userface=mesh.faces.ravel())
-            visual = k == 0
-            body.add_geom(
-                type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"obj{i}_{k}", density=0 if visual else 500,
-                contype=0 if visual else 1, conaffinity=0 if visual else 1, group=0 if visual else 3,
-            )
-    model = spec.compile()
+    spec, grid = _world(0.6, len(assets))
+    for i, (asset, (x, y)) in enumerate(zip(assets, grid)):
+        _add_asset(spec, f"obj{i}", asset, (x, y, 0.001))
+    model, data = _run(spec, 0.8)
     assert model.nmesh == sum(1 + len(a.collision) for a in assets)
-    data = mujoco.MjData(model)
-    while data.time < 0.6:
-        mujoco.mj_step(model, data)
     for i, category in enumerate(CATEGORIES):
-        quat = data.xquat[model.body(f"obj{i}").id]
-        tilt = np.degrees(2 * np.arccos(min(1.0, abs(quat[0]))))
-        assert tilt < 3, (category, tilt)
+        body = model.body(f"obj{i}").id
+        assert _tilt_deg(data.xquat[body]) < 3, category
+        assert np.linalg.norm(data.xpos[body][:2] - grid[i]) < 0.01, category  # it did not slide or roll away
+
+
+def _rest_height(asset: Asset) -> float:
+    """Where something put on a support comes to rest: a tray's floor, a plate's well, else the top."""
+    if asset.cavity is not None:
+        return asset.cavity.floor_z_m
+    return asset.params["thickness_m"] if asset.category == "plate" else float(asset.size_m[2])
+
+
+def test_containers_hold_and_supports_carry_what_is_put_on_them(built: dict) -> None:
+    """A ball dropped into each container's cavity ends on the cavity floor, inside the cavity
+    (the collision parts keep it open); a cube dropped on each support rests on top of it."""
+    cases = [(c, "ball") for c in CONTAINERS] + [(c, "cube") for c in SUPPORTS if c not in CONTAINERS]
+    spec, grid = _world(0.7, len(cases))
+    expected = []
+    for i, ((category, probe), (x, y)) in enumerate(zip(cases, grid)):
+        asset = built[category, SEEDS[0]]
+        _add_asset(spec, f"obj{i}", asset, (x, y, 0.0))
+        if probe == "ball":
+            cav = asset.cavity
+            r = min(0.4 * min(cav.half_extents_m), 0.4 * (cav.rim_z_m - cav.floor_z_m), 0.015)
+            z, size, geom = cav.rim_z_m + r + 0.005, [r, 0, 0], mujoco.mjtGeom.mjGEOM_SPHERE
+            expected.append((cav.floor_z_m + r, cav))
+        else:
+            r = 0.0125
+            z, size, geom = float(asset.size_m[2]) + r + 0.01, [r, r, r], mujoco.mjtGeom.mjGEOM_BOX
+            expected.append((_rest_height(asset) + r, None))
+        probe_body = spec.worldbody.add_body(name=f"probe{i}", pos=[x, y, z])
+        probe_body.add_freejoint()
+        probe_body.add_geom(type=geom, size=size, density=500, friction=list(FRICTION), condim=6)
+    model, data = _run(spec, 1.0)
+    for i, ((category, _), (want_z, cav)) in enumerate(zip(cases, expected)):
+        host = model.body(f"obj{i}").id
+        assert _tilt_deg(data.xquat[host]) < 3, category
+        local = data.xmat[host].reshape(3, 3).T @ (data.xpos[model.body(f"probe{i}").id] - data.xpos[host])
+        assert abs(local[2] - want_z) < 3 * MM, (category, local, want_z)
+        if cav is not None:
+            hx, hy = cav.half_extents_m
+            if cav.shape == "cylinder":
+                assert np.hypot(local[0] / hx, local[1] / hy) < 1.0, category
+            else:
+                assert max(abs(local[0]) / hx, abs(local[1]) / hy) < 1.0, category
+        else:
+            assert np.hypot(*local[:2]) < 0.02, (category, local)
