@@ -145,6 +145,17 @@ def trace_text(steps: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def point_qa(family: str, template: str, text: str, program: list[Node], values: list,
+             views: dict[str, ViewFacts], spec: dict, rng, **extra: Any) -> QA | None:
+    """A point question about the object the program ends on, in the record's own view."""
+    points = sample_points(views["self"], values[-1], spec["answer_points"], rng)
+    if points is None:
+        return None
+    prompt = Phrasebook.get().template(template, rng=rng).format(ref=text, clauses=text)
+    return make_qa(family, "point", prompt, format_points(points), program, values, views, rng,
+                   points=points, target=values[-1], **extra)
+
+
 def make_qa(family: str, kind: str, prompt: str, answer: str, program: list[Node], values: list,
             views: dict[str, ViewFacts], rng, points: list[list[float]] | None = None,
             target: int | None = None, ref: str | None = None, **extra: Any) -> QA | None:

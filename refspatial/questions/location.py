@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
-from .common import QA, format_points, make_qa, pick_target, sample_points
+from .common import QA, make_qa, pick_target, point_qa
 from .phrases import Phrasebook
 from .program import Node, execute
 from .refer import Ref, anchored_refs, compile_ref, simple_refs
@@ -52,14 +52,7 @@ def location(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random
     if found is None:
         return None
     _, text, program = found
-    values = execute(program, view)
-    book = Phrasebook.get()
-    points = sample_points(view, values[-1], spec["answer_points"], rng)
-    if points is None:
-        return None
-    prompt = book.template("location", rng=rng).format(ref=text)
-    return make_qa("location", "point", prompt, format_points(points), program, values, views, rng,
-                   points=points, target=values[-1], ref=text)
+    return point_qa("location", "location", text, program, execute(program, view), views, spec, rng, ref=text)
 
 
 def identify(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
@@ -82,9 +75,4 @@ def identify(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random
         prompt = book.template("identify_name", rng=rng).format(clauses=clauses)
         return make_qa("identify", "name", prompt, name, program, values, views, rng, target=values[-1],
                        ref=texts[ref], answer_name=name)
-    points = sample_points(view, values[-1], spec["answer_points"], rng)
-    if points is None:
-        return None
-    prompt = book.template("identify_point", rng=rng).format(clauses=clauses)
-    return make_qa("identify", "point", prompt, format_points(points), program, values, views, rng,
-                   points=points, target=values[-1], ref=texts[ref])
+    return point_qa("identify", "identify_point", clauses, program, values, views, spec, rng, ref=texts[ref])

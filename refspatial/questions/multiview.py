@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
-from .common import QA, format_points, make_qa, sample_points
+from .common import QA, make_qa, point_qa
 from .location import described_target
 from .phrases import Phrasebook
 from .program import Node, ProgramError, execute
@@ -29,14 +29,8 @@ def _same_object(views, spec: dict, steps: int, rng) -> QA | None:
     _, text, program = found
     # The same object, now located in image 2.
     program.append({"op": "unique", "inputs": [len(program) - 1], "text": text})
-    values = execute(program, views)
-    book = Phrasebook.get()
-    points = sample_points(second, values[-1], spec["answer_points"], rng)
-    if points is None:
-        return None
-    prompt = book.template("multiview_point", rng=rng).format(ref=text)
-    return make_qa("multiview", "point", prompt, format_points(points), program, values, views, rng,
-                   points=points, target=values[-1], ref=text, images=["other", "self"])
+    return point_qa("multiview", "multiview_point", text, program, execute(program, views), views, spec, rng,
+                    ref=text, images=["other", "self"])
 
 
 def _camera_move(views, rng) -> QA | None:
