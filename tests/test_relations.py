@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from refspatial.relations import PREDICATES, TABLE, computed_relations
+from refspatial.relations import PREDICATES, computed_relations
 from refspatial.relations.directional import MIN_MARGIN_M
 from refspatial.scene import Cavity
 
