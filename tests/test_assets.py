@@ -728,3 +728,17 @@ def test_containers_hold_and_supports_carry_what_is_put_on_them(built: dict) -> 
                 assert max(abs(local[0]) / hx, abs(local[1]) / hy) < 1.0, category
         else:
             assert np.hypot(*local[:2]) < 0.02, (category, local)
+
+
+def test_union_survives_a_piece_that_is_not_a_volume():
+    """A rare parameter draw can fold a thin piece into a non-volume (seen once in 1000 scenes);
+    booleans refuse those, so union falls back to the piece's hull instead of failing the scene."""
+    from refspatial.shapes import geometry as g
+
+    open_box = trimesh.creation.box((0.02, 0.02, 0.005))
+    open_box = trimesh.Trimesh(open_box.vertices, open_box.faces[:-2], process=False)  # one side missing
+    assert not open_box.is_volume
+    with pytest.raises(ValueError):
+        trimesh.boolean.union([open_box, trimesh.creation.box((0.01, 0.01, 0.01))], engine="manifold")
+    merged = g.union([open_box, trimesh.creation.box((0.01, 0.01, 0.01))])
+    assert merged.is_volume and merged.volume > 0

@@ -44,7 +44,18 @@ def lip(r_out: float, r_in: float, top: float) -> list[tuple[float, float]]:
 
 
 def union(meshes: Sequence[trimesh.Trimesh]) -> trimesh.Trimesh:
-    return outward(trimesh.boolean.union(list(meshes), engine="manifold"))
+    return outward(trimesh.boolean.union([as_volume(m) for m in meshes], engine="manifold"))
+
+
+def as_volume(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The mesh, or for the rare parameter draw where a thin extruded outline folds over itself
+    (not a closed volume, which booleans refuse), its convex hull."""
+    if mesh.is_volume:
+        return mesh
+    repaired = mesh.copy()
+    trimesh.repair.fix_winding(repaired)
+    trimesh.repair.fix_normals(repaired)
+    return repaired if repaired.is_volume else mesh.convex_hull
 
 
 def difference(body: trimesh.Trimesh, *cutters: trimesh.Trimesh) -> trimesh.Trimesh:
