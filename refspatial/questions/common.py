@@ -34,7 +34,7 @@ def pick_target(view: ViewFacts, rng: np.random.Generator):
     objs = view.askable()
     centre = np.array([view.width / 2, view.height / 2])
     diag = float(np.hypot(view.width, view.height))
-    w = np.array([0.3 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs])
+    w = np.array([0.05 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs]) ** 3
     return objs[int(rng.choice(len(objs), p=w / w.sum()))]
 
 
