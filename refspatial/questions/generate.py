@@ -22,6 +22,8 @@ from .placement import placement
 from .quantity import quantity
 from .visual import visual_choice
 
+STEP_REDRAWS = 3
+
 FAMILIES: dict[str, Callable[[dict[str, ViewFacts], dict, int, np.random.Generator], QA | None]] = {
     "location": location,
     "placement": placement,
@@ -48,20 +50,29 @@ def questions_for_view(view: ViewFacts, spec: dict, rng: np.random.Generator, ke
     seen: set[str] = set()
     if not view.askable() or not families:
         return out
-    budget = 3 * spec["per_view"]  # draws, so a view with little to ask still ends
+    budget = 3 * spec["per_view"]  # family draws, so a view with little to ask still ends
     while len(out) < spec["per_view"] and budget > 0:
         budget -= 1
         family = weighted(families, rng)
+        qa = _draw(views, spec, family, rng, seen)
+        if qa is not None:
+            seen.add(_signature(qa))
+            if "images" in qa:
+                qa["images"] = [other[0] if v == "other" else key for v in qa["images"]]
+            out.append({"qa_id": f"{key}#{len(out)}", **qa})
+    return out
+
+
+def _draw(views, spec: dict, family: str, rng: np.random.Generator, seen: set[str]) -> QA | None:
+    """One new question of the family. A failed step count is redrawn but the family is kept:
+    replacing hard families by easy ones on failure would skew the recipe's family mix."""
+    for _ in range(STEP_REDRAWS):
         steps = int(weighted(spec["steps"], rng))
         for _attempt in range(spec["attempts_per_question"]):
             qa = FAMILIES[family](views, spec, steps, rng)
             if qa is not None and _signature(qa) not in seen:
-                seen.add(_signature(qa))
-                if "images" in qa:
-                    qa["images"] = [other[0] if v == "other" else key for v in qa["images"]]
-                out.append({"qa_id": f"{key}#{len(out)}", **qa})
-                break
-    return out
+                return qa
+    return None
 
 
 def _signature(qa: QA) -> str:
