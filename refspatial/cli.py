@@ -37,7 +37,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--recipe", default="tabletop", help="recipe name in recipes/ or a .yaml path (default: tabletop)")
     g.add_argument("--out", type=Path, default=Path("data"), help="output folder (default: ./data)")
     g.add_argument("--seed", type=int, default=0, help="base seed; scene i uses a seed hashed from (seed, i)")
-    g.add_argument("--workers", type=_positive, default=os.cpu_count() or 1,
+    g.add_argument("--workers", type=_positive,
+                   default=len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1,
                    help="worker processes, or CPUs of a local Ray instance (default: all cores)")
     g.add_argument("--scenes-per-shard", type=_positive, default=25, help="scenes per MCAP shard (default: 25)")
     g.add_argument("--executor", choices=("local", "ray"), default="local",
@@ -123,7 +124,7 @@ def _generate(args: argparse.Namespace) -> int:
         if args.workers > 1 or args.executor == "ray":
             os.environ["LP_NUM_THREADS"] = "1"  # calibrate at a worker's speed (set before any GL)
         print(format_plan(dry_run(args.out, recipe, catalogue, args.scenes, args.seed, args.workers,
-                                  args.scenes_per_shard, args.calibrate)))
+                                  args.scenes_per_shard, args.calibrate, None if executor else os.cpu_count())))
         return 0
     progress, manifest, failed = None if args.quiet else RunProgress(), None, None
     with sigterm_as_interrupt():

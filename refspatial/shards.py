@@ -5,34 +5,49 @@ count and shard size alone, so the bytes never depend on how many workers ran
 or in which order they finished. A shard becomes visible only when complete:
 its MCAP file is renamed into place, then a small JSON sidecar with its counts
 and checksum; the manifest is rebuilt from the sidecars at the end. Running the
-same command again skips complete shards and redoes the rest.
+same command again, after a crash, ``kill -9`` or a full disk, skips complete
+shards (checked against their checksum), deletes stale ``.partial`` files and
+redoes the rest. Where the shards run (this process, worker processes, a Ray
+cluster) is the executor's business (``executors.py``).
 """
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import json
-import multiprocessing as mp
 import os
 import sys
-import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import metadata as importlib_metadata
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable, Iterator, Protocol
 
 from . import __version__
-from .assets import Catalogue
-from .recipe import Recipe
 from .records import ShardWriter, sha256_file
 from .seeding import scene_seed
+
+if TYPE_CHECKING:  # kept out of worker start-up: assets imports trimesh (~2 s)
+    from .assets import Catalogue
+    from .executors import Executor, ShardResult
+    from .pipeline import SceneOutcome
+    from .recipe import Recipe
 
 FORMAT = "refspatial-shards"
 FORMAT_VERSION = 1
 VERSIONED_PACKAGES = ("mujoco", "numpy", "trimesh", "manifold3d", "mcap", "opencv-python-headless")
+RERUN = "run the same command again to finish"
+# Writing can fail this way for every shard alike: stop at once rather than burn the whole plan.
+FATAL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})
 
 
 class RunError(RuntimeError):
-    """A run that cannot start or continue; the message says what to change."""
+    """A run that cannot start; the message says what to change."""
+
+
+class RunFailed(RunError):
+    """A run that started but could not finish every shard; complete shards are kept."""
 
 
 @dataclass(frozen=True)
@@ -58,29 +73,65 @@ class ShardJob:
         return self.out_dir / "shards" / f"{self.name}.json"
 
 
+@dataclass(frozen=True)
+class SceneTick:
+    """One scene finished inside a shard still being written: progress only, never stored."""
+
+    shard: int
+    index: int
+    records: int
+    qa: int
+    skipped: str | None  # reason slug, None when the scene made records
+
+
+OnScene = Callable[[SceneTick], None]
+WriterFactory = Callable[[Path, dict], ShardWriter]
+
+
+class Progress(Protocol):
+    """What ``generate`` tells whoever watches a run (see ``progress.py``)."""
+
+    def start(self, total_scenes: int, done_scenes: int, total_shards: int, done_shards: int) -> None: ...
+    def scene(self, tick: SceneTick) -> None: ...
+    def shard(self, summary: dict) -> None: ...
+    def failed(self, name: str, reason: str) -> None: ...
+
+
 def plan(n_scenes: int, scenes_per_shard: int) -> list[tuple[int, int]]:
     """Scene index ranges [start, stop) of each shard."""
     return [(s, min(s + scenes_per_shard, n_scenes)) for s in range(0, n_scenes, scenes_per_shard)]
 
 
-def run_shard(job: ShardJob) -> dict:
-    """Generate one shard's scenes and write them; returns its summary (with timings)."""
-    from .pipeline import generate_scene
+def plan_jobs(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int, base_seed: int,
+              scenes_per_shard: int) -> list[ShardJob]:
+    return [ShardJob(i, a, b, out_dir, recipe, catalogue, base_seed)
+            for i, (a, b) in enumerate(plan(n_scenes, scenes_per_shard))]
 
+
+def run_shard(job: ShardJob, on_scene: OnScene | None = None,
+              open_writer: WriterFactory = ShardWriter) -> dict:
+    """Generate one shard's scenes and write them; returns its summary (with timings).
+
+    A scene that fails in any way is recorded as skipped with its reason and the shard
+    goes on; only writing errors (a full disk) end the shard, leaving no file behind.
+    ``open_writer`` exists so that tests can make the disk fail.
+    """
     seconds: dict[str, float] = {}
     skipped, qa, records = [], 0, 0
-    with ShardWriter(job.mcap_path, _shard_metadata(job)) as writer:
+    with open_writer(job.mcap_path, _shard_metadata(job)) as writer:
         for index in range(job.start, job.stop):
-            seed = scene_seed(job.base_seed, index)
-            outcome = generate_scene(job.recipe, job.catalogue, seed)
+            outcome = _scene(job, index)
+            for record in outcome.records:
+                writer.write(record)
+            n_qa = sum(len(r.qa) for r in outcome.records)
+            records, qa = records + len(outcome.records), qa + n_qa
             for stage, s in outcome.seconds.items():
                 seconds[stage] = seconds.get(stage, 0.0) + s
             if outcome.rejected:
-                skipped.append({"index": index, "seed": seed, "reason": outcome.rejected, "detail": outcome.detail})
-            for record in outcome.records:
-                writer.write(record)
-                records += 1
-                qa += len(record.qa)
+                skipped.append({"index": index, "seed": outcome.seed, "reason": outcome.rejected,
+                                "detail": outcome.detail})
+            if on_scene:
+                on_scene(SceneTick(job.index, index, len(outcome.records), n_qa, outcome.rejected))
     summary = {
         "file": f"shards/{job.name}.mcap",
         "scenes": [job.start, job.stop],
@@ -88,9 +139,29 @@ def run_shard(job: ShardJob) -> dict:
         "qa": qa,
         "sha256": sha256_file(job.mcap_path),
         "skipped": skipped,
+        "recipe_hash": job.recipe.hash,
+        "base_seed": job.base_seed,
     }
     _write_json(job.sidecar_path, summary)
     return {**summary, "seconds": seconds}
+
+
+def _scene(job: ShardJob, index: int) -> SceneOutcome:
+    """generate_scene, with any exception turned into a skipped scene: one bad scene
+    (a physics blow-up, a renderer error, a bug hit by one seed) must not cost the run."""
+    from .pipeline import SceneOutcome, generate_scene
+
+    seed = scene_seed(job.base_seed, index)
+    try:
+        return generate_scene(job.recipe, job.catalogue, seed)
+    except Exception as exc:  # noqa: BLE001 - recorded with type and message, never hidden
+        return SceneOutcome(seed, rejected="error", detail=one_line(exc))
+
+
+def one_line(exc: BaseException) -> str:
+    """``Type: message`` on one line, the form errors take in sidecars and messages."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
 def _shard_metadata(job: ShardJob) -> dict[str, dict[str, str]]:
@@ -116,17 +187,51 @@ def _write_json(path: Path, obj: dict) -> None:
     tmp.replace(path)
 
 
-def _complete(job: ShardJob) -> dict | None:
+def _read_sidecar(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None  # missing or torn: the shard is simply redone
+
+
+def complete(job: ShardJob) -> dict | None:
     """The sidecar of a shard already on disk whose checksum still matches, else None."""
     if not (job.sidecar_path.is_file() and job.mcap_path.is_file()):
         return None
+    summary = _read_sidecar(job.sidecar_path)
+    if (summary is None or summary.get("scenes") != [job.start, job.stop]
+            or summary.get("recipe_hash") != job.recipe.hash or summary.get("base_seed") != job.base_seed):
+        return None
+    return summary if summary.get("sha256") == sha256_file(job.mcap_path) else None
+
+
+def remove_partials(out_dir: Path) -> list[Path]:
+    """Delete the ``.partial`` files a killed run leaves behind (never complete files)."""
+    stale = [*out_dir.glob(".*.partial"), *(out_dir / "shards").glob(".*.partial")]
+    for path in stale:
+        try:
+            path.unlink(missing_ok=True)
+        except OSError:
+            pass  # a read-only disk: the next run, with the disk fixed, removes it
+    return stale
+
+
+@contextmanager
+def run_lock(out_dir: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the output folder: two runs into one folder would delete
+    each other's partial files. The kernel drops it when the process dies, even by kill -9."""
+    fd = os.open(out_dir, os.O_RDONLY)
     try:
-        summary = json.loads(job.sidecar_path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
-        return None
-    if summary.get("scenes") != [job.start, job.stop] or summary.get("sha256") != sha256_file(job.mcap_path):
-        return None
-    return summary
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise RunError(f"another `refspatial generate` is writing to {out_dir}; wait for it "
+                           "to end or choose another --out") from None
+        except OSError:
+            pass  # a filesystem without flock (some NFS): run unlocked
+        yield
+    finally:
+        os.close(fd)
 
 
 def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int) -> None:
@@ -138,56 +243,126 @@ def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_sh
         probe.unlink()
     except OSError as exc:
         raise RunError(f"cannot write to {out_dir} ({exc.strerror}); choose another --out") from None
-    manifest = out_dir / "manifest.json"
-    if manifest.is_file():
-        old = json.loads(manifest.read_text(encoding="utf-8"))
-        mine = {"recipe_hash": recipe.hash, "base_seed": base_seed, "scenes_per_shard": scenes_per_shard}
-        theirs = {k: old.get(k) for k in mine}
-        if theirs != mine:
+    check_existing(out_dir, recipe, base_seed, scenes_per_shard)
+
+
+def check_existing(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int) -> None:
+    """Refuse a folder that holds (part of) a run with another recipe, seed or shard size."""
+    mine = {"recipe_hash": recipe.hash, "base_seed": base_seed, "scenes_per_shard": scenes_per_shard}
+    for theirs in _existing_runs(out_dir, scenes_per_shard):
+        if {k: theirs.get(k) for k in mine} != mine:
             raise RunError(
                 f"{out_dir} already holds a dataset made with {theirs}; use another --out, "
                 "or the same --recipe/--seed/--scenes-per-shard to extend or resume it"
             )
 
 
-def generate(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int, base_seed: int = 0,
-             workers: int = 1, scenes_per_shard: int = 25,
-             progress: Callable[[dict, int, int], None] | None = None) -> dict:
-    """Generate (or finish) a dataset; returns the manifest."""
+def _existing_runs(out_dir: Path, scenes_per_shard: int) -> Iterator[dict]:
+    """What the manifest, or failing that each sidecar of an unfinished run, says made them."""
+    manifest = out_dir / "manifest.json"
+    if manifest.is_file():
+        yield json.loads(manifest.read_text(encoding="utf-8"))
+        return
+    for path in sorted((out_dir / "shards").glob("shard-*.json")):
+        side = _read_sidecar(path)
+        if side is None or "scenes" not in side:
+            continue
+        spp = _shard_size(int(path.stem.split("-")[1]), *side["scenes"], scenes_per_shard)
+        yield {"recipe_hash": side.get("recipe_hash"), "base_seed": side.get("base_seed"), "scenes_per_shard": spp}
+
+
+def _shard_size(index: int, start: int, stop: int, expected: int) -> int:
+    """--scenes-per-shard of the run that wrote shard ``index`` = [start, stop): shard i
+    starts at i * size; shard 0 only bounds the size from below."""
+    if index:
+        return start // index if start % index == 0 else -1
+    return expected if stop - start <= expected else stop - start
+
+
+def check_args(n_scenes: int, workers: int, scenes_per_shard: int) -> None:
     if n_scenes < 0 or workers < 1 or scenes_per_shard < 1:
         raise RunError("--scenes must be >= 0, --workers and --scenes-per-shard >= 1")
+
+
+def generate(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int, base_seed: int = 0,
+             workers: int = 1, scenes_per_shard: int = 25, progress: Progress | None = None,
+             executor: Executor | None = None) -> dict:
+    """Generate (or finish) a dataset; returns the manifest.
+
+    Raises RunFailed, after every shard that could be made is on disk, when some shard
+    could not be; running the same call again finishes the dataset.
+    """
+    from .executors import local_executor
+
+    check_args(n_scenes, workers, scenes_per_shard)
+    out_dir = Path(out_dir)
     prepare_out_dir(out_dir, recipe, base_seed, scenes_per_shard)
-    jobs = [ShardJob(i, a, b, out_dir, recipe, catalogue, base_seed)
-            for i, (a, b) in enumerate(plan(n_scenes, scenes_per_shard))]
-    done = {job.index: s for job in jobs if (s := _complete(job)) is not None}
-    todo = [job for job in jobs if job.index not in done]
-    for summary in _execute(todo, workers):
-        index = int(Path(summary["file"]).stem.split("-")[1])
-        done[index] = summary
+    jobs = plan_jobs(out_dir, recipe, catalogue, n_scenes, base_seed, scenes_per_shard)
+    with run_lock(out_dir):
+        remove_partials(out_dir)  # of a run killed before it could clean up
+        done = {job.index: s for job in jobs if (s := complete(job)) is not None}
+        todo = [job for job in jobs if job.index not in done]
         if progress:
-            progress(summary, len(done), len(jobs))
-    manifest = build_manifest(recipe, catalogue, base_seed, scenes_per_shard, [done[j.index] for j in jobs])
-    _write_json(out_dir / "manifest.json", manifest)
+            progress.start(n_scenes, sum(b - a for a, b in (s["scenes"] for s in done.values())),
+                           len(jobs), len(done))
+        try:
+            failures = _run(executor or local_executor(workers), todo, done, progress)
+        finally:
+            remove_partials(out_dir)  # of workers stopped mid-shard by a failure or Ctrl-C
+        if failures:
+            raise RunFailed(_failure_message(failures, len(done), len(jobs)))
+        manifest = build_manifest(recipe, catalogue, base_seed, scenes_per_shard, [done[j.index] for j in jobs])
+        _write_json(out_dir / "manifest.json", manifest)
     return manifest
 
 
-def _execute(jobs: list[ShardJob], workers: int):
-    if workers == 1 or len(jobs) <= 1:
-        yield from map(run_shard, jobs)
-        return
-    # Each worker renders single-threaded: separate processes beat one process with
-    # two rasteriser threads (platform.md), and they must not fight over cores.
-    previous = os.environ.get("LP_NUM_THREADS")
-    os.environ["LP_NUM_THREADS"] = "1"
+def _run(executor: Executor, todo: list[ShardJob], done: dict[int, dict],
+         progress: Progress | None) -> list[tuple[ShardJob, str, bool]]:
+    """Feed the executor, collect summaries; stop early only on a fatal (disk) error."""
+    failures = []
+    with _closing(executor.run(todo, progress.scene if progress else None)) as results:
+        for result in results:
+            failure = _check_result(result)
+            if failure is None:
+                done[result.job.index] = result.summary
+                if progress:
+                    progress.shard(result.summary)
+                continue
+            failures.append((result.job, *failure))
+            if progress:
+                progress.failed(result.job.name, failure[0])
+            if failure[1]:
+                break
+    return failures
+
+
+@contextmanager
+def _closing(results: Iterator[ShardResult]) -> Iterator[Iterator[ShardResult]]:
+    """Close a generator executor's iterator (stopping its workers) however the loop ends."""
     try:
-        ctx = mp.get_context("spawn")  # GL contexts do not survive fork
-        with ctx.Pool(processes=min(workers, len(jobs))) as pool:
-            yield from pool.imap_unordered(run_shard, jobs)
+        yield results
     finally:
-        if previous is None:
-            os.environ.pop("LP_NUM_THREADS", None)
-        else:
-            os.environ["LP_NUM_THREADS"] = previous
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()
+
+
+def _check_result(result: ShardResult) -> tuple[str, bool] | None:
+    """(reason, fatal) for a failed shard; None when its file really is on disk, complete."""
+    if result.error is not None:
+        return result.error, result.errno in FATAL_ERRNOS
+    if complete(result.job) is None:
+        return (f"its worker reported success but {result.job.mcap_path} is missing or differs from "
+                "its checksum; with a cluster, --out must be a folder every node mounts at the same path", True)
+    return None
+
+
+def _failure_message(failures: list[tuple[ShardJob, str, bool]], complete: int, total: int) -> str:
+    job, reason, fatal = failures[0]
+    what = f"{job.name} (scenes {job.start}-{job.stop}) failed: {reason}"
+    more = f"; {len(failures) - 1} more shard(s) failed" if len(failures) > 1 else ""
+    fix = "free space or fix the folder's permissions (or choose another --out), then " if fatal else ""
+    return f"{what}{more}; {complete} of {total} shards are complete; {fix}{RERUN}"
 
 
 def build_manifest(recipe: Recipe, catalogue: Catalogue, base_seed: int, scenes_per_shard: int,
@@ -225,24 +400,3 @@ def package_versions() -> dict[str, str]:
         except importlib_metadata.PackageNotFoundError:
             out[name] = "missing"
     return out
-
-
-class Progress:
-    """One line per finished shard on stderr: counts, rates and time left."""
-
-    def __init__(self, stream=sys.stderr) -> None:
-        self.stream = stream
-        self.start = time.perf_counter()
-        self.scenes = self.records = self.qa = 0
-
-    def __call__(self, summary: dict, done: int, total: int) -> None:
-        a, b = summary["scenes"]
-        self.scenes += b - a
-        self.records += summary["records"]
-        self.qa += summary["qa"]
-        elapsed = time.perf_counter() - self.start
-        rate = self.scenes / elapsed if elapsed else 0.0
-        eta = (total - done) * elapsed / max(done, 1)
-        print(f"[{done}/{total} shards] {self.records} records, {self.qa} QA, "
-              f"{rate:.2f} scenes/s, {self.qa / max(elapsed, 1e-9):.1f} QA/s, ETA {eta:.0f}s",
-              file=self.stream, flush=True)
