@@ -26,7 +26,7 @@ venv: $(STAMP)
 $(STAMP): pyproject.toml | sysdeps
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e ".[test,torch]"
+	$(BIN)/python -m pip install -q -e ".[test,torch,ray]"
 	@touch $@
 
 # A small dataset with the default recipe, then its statistics.

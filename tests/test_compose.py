@@ -39,16 +39,28 @@ def test_objects_are_on_the_table_without_overlap(tiny, catalogue, seed):
         assert o.pose.pos_world_m[2] > table_z
 
 
-def test_recipes_fill_containers_and_stack_on_supports(tiny, catalogue):
-    hosted = 0
-    for seed in range(30):
+def test_recipes_fill_containers_and_stack_on_supports(catalogue, tmp_path):
+    from conftest import TINY
+
+    from refspatial.recipe import load_recipe
+
+    path = tmp_path / "hosting.yaml"
+    path.write_text(f"extends: {TINY}\nname: hosting\nobjects: {{count: [6, 8], fill: 1.0, stack: 1.0}}\n")
+    recipe = load_recipe(str(path))
+    inside = on_top = 0
+    for seed in range(20):
         try:
-            scene = compose(tiny, catalogue, seed)
+            scene = compose(recipe, catalogue, seed)
         except SceneRejected:
             continue
-        z = scene.table.top_z_m + tiny["objects"]["drop_height_m"]
-        hosted += sum(o.pose.pos_world_m[2] > z + 1e-9 for o in scene.objects)
-    assert hosted >= 3
+        z = scene.table.top_z_m + recipe["objects"]["drop_height_m"]
+        for o in scene.objects:
+            if o.pose.pos_world_m[2] > z + 1e-9:
+                host = min((h for h in scene.objects if h.asset.cavity or h.asset.support),
+                           key=lambda h: np.hypot(*np.subtract(h.pose.pos_world_m[:2], o.pose.pos_world_m[:2])))
+                inside += host.asset.cavity is not None
+                on_top += host.asset.cavity is None
+    assert inside >= 2 and on_top >= 2
 
 
 def _quad(o):

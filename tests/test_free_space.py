@@ -71,14 +71,17 @@ def test_combined_constraints_and_metric_offsets(views):
             for b in objs:
                 if a is b:
                     continue
-                c = (Constraint("sector", (a.object_id,), "left"), Constraint("sector", (b.object_id,), "front"))
-                answer = solve(v, c)
-                if answer is not None:
-                    _check(v, answer, c)
-                    rel_a = answer.point_world_m[:2] - a.center_world_m[:2]
-                    rel_b = answer.point_world_m[:2] - b.center_world_m[:2]
-                    assert rel_a @ direction_axis(v, "left") > 0 and rel_b @ direction_axis(v, "front") > 0
-                    combined += 1
+                for d1 in DIRECTIONS:
+                    for d2 in DIRECTIONS:
+                        c = (Constraint("sector", (a.object_id,), d1), Constraint("sector", (b.object_id,), d2))
+                        answer = solve(v, c)
+                        if answer is None:
+                            continue
+                        _check(v, answer, c)
+                        rel_a = answer.point_world_m[:2] - a.center_world_m[:2]
+                        rel_b = answer.point_world_m[:2] - b.center_world_m[:2]
+                        assert rel_a @ direction_axis(v, d1) > 0 and rel_b @ direction_axis(v, d2) > 0
+                        combined += 1
             c = (Constraint("offset", (a.object_id,), "right", 0.10),)
             answer = solve(v, c)
             if answer is not None:
