@@ -8,21 +8,13 @@ import os
 import sys
 from pathlib import Path
 
+from .argtypes import at_least
+
 EXIT_USAGE = 2
 
 
-def _nonnegative(text: str) -> int:
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a count >= 0, got {value}")
-    return value
-
-
-def _positive(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {value}")
-    return value
+_nonnegative = at_least(0)
+_positive = at_least(1)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -54,8 +54,10 @@ class _Shard:
 class RunProgress:
     """Implements ``shards.Progress`` for a person watching stderr."""
 
-    def __init__(self, stream: TextIO = sys.stderr, tty: bool | None = None,
+    def __init__(self, stream: TextIO | None = None, tty: bool | None = None,
                  clock: Callable[[], float] = time.monotonic, redraw_s: float = 0.2) -> None:
+        # sys.stderr is looked up now, not at import: it may have been replaced since (tests, notebooks).
+        stream = sys.stderr if stream is None else stream
         self.stream, self.clock, self.redraw_s = stream, clock, redraw_s
         self.tty = stream.isatty() if tty is None else tty
         self.total = self.before = self.shards_total = self.shards_done = 0

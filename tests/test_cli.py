@@ -28,7 +28,7 @@ def test_help_lists_subcommands():
     "args, needle",
     [
         (["generate", "--scenes", "2", "--recipe", "no_such_recipe"], "unknown recipe 'no_such_recipe'"),
-        (["generate", "--scenes", "-3"], "expected a count >= 0"),
+        (["generate", "--scenes", "-3"], "expected a number >= 0"),
         (["generate", "--scenes", "1", "--workers", "0"], "expected a number >= 1"),
     ],
 )

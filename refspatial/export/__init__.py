@@ -18,23 +18,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+from ..argtypes import at_least
 from .base import ExportError, ExportSummary
 
 __all__ = ["FORMATS", "ExportError", "ExportSummary", "Format", "add_cli", "export", "exporter", "run_cli"]
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
-    return value
-
-
-def _nonnegative_float(text: str) -> float:
-    value = float(text)
-    if not value >= 0:
-        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text}")
-    return value
+_positive_int = at_least(1)
+_nonnegative_float = at_least(0.0, float)
 
 
 @dataclass(frozen=True)
