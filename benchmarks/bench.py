@@ -5,7 +5,7 @@
 1. End to end: the real shard code (compose, settle, frame, render, relations,
    questions, MCAP write) in this process, one core, into a temporary folder.
 2. Bare render: for the same scenes, only what any MuJoCo renderer must do for a
-   new scene (compile the model, make a Renderer, draw RGB, depth and
+   new scene (compile the model, upload it to the GL context, draw RGB, depth and
    segmentation of every view) at the same resolution and quality settings.
 3. Optionally the whole run again with K worker processes (scaling).
 The ratio of (1) to (2) says how close the pipeline runs to the renderer's limit.
@@ -80,7 +80,8 @@ def main() -> None:
         s = stages.get(stage, 0.0)
         print(f"  {stage:<12} {s:7.2f} s  {100 * s / e2e_s:5.1f} %  {1000 * s / max(records, 1):7.1f} ms/record")
     bare_s, views = bare_render(recipe, catalogue, args.scenes)
-    print(f"\nbare MuJoCo render of the same {views} views (compile + Renderer + RGB/depth/seg): {bare_s:.2f} s, "
+    print(f"\nbare MuJoCo render of the same {views} views (model compile, MjrContext, colour pass and "
+          f"depth+segmentation pass, GL context reused, as in the pipeline): {bare_s:.2f} s, "
           f"{views / bare_s:.2f} views/s")
     print(f"ratio end-to-end / bare render: {(records / e2e_s) / (views / bare_s):.2f}")
     if args.workers > 1:
