@@ -183,8 +183,10 @@ class ShardWriter:
     def abort(self) -> None:
         """Drop the partial file; whatever is at ``path`` stays untouched."""
         self._done = True
-        self._file.close()
-        self.partial_path.unlink(missing_ok=True)
+        try:
+            self._file.close()  # may raise itself on a full disk: the partial file must still go
+        finally:
+            self.partial_path.unlink(missing_ok=True)
 
 
 def _check_metadata(path: Path, metadata: dict[str, dict[str, str]]) -> None:

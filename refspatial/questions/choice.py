@@ -26,12 +26,17 @@ def choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.G
 
 def _yes_no(views, predicates: list[str], rng) -> QA | None:
     view = views["self"]
-    name = predicates[int(rng.integers(len(predicates)))]
-    pred = PREDICATES[name]
-    want = bool(rng.random() < 0.5)  # the answer is drawn first, so yes and no stay balanced
-    # All groups with the wanted answer (verdicts are cached), so rare relations still get asked.
-    groups = [g for g in permutations(view.askable(), pred.arity) if pred(view, *g) is want]
-    if not groups:
+    # The answer is drawn first and kept while relations are tried in random order: were it
+    # redrawn on failure, "no" (far more often available) would crowd out "yes".
+    want = bool(rng.random() < 0.5)
+    for k in rng.permutation(len(predicates)):
+        name = predicates[int(k)]
+        pred = PREDICATES[name]
+        # All groups with the wanted answer (verdicts are cached), so rare relations still get asked.
+        groups = [g for g in permutations(view.askable(), pred.arity) if pred(view, *g) is want]
+        if groups:
+            break
+    else:
         return None
     group = groups[int(rng.integers(len(groups)))]
     built = over_objects(view, group, {"op": "query", "predicate": name}, rng)
