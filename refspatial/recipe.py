@@ -33,6 +33,11 @@ class Recipe:
     def __getitem__(self, section: str) -> dict[str, Any]:
         return self.data[section]
 
+    @property
+    def resolved_yaml(self) -> str:
+        """The resolved recipe as standalone YAML: loads without its parents, to the same hash."""
+        return yaml.safe_dump(self.data, sort_keys=True)
+
 
 # --- the schema: section -> key -> checker -------------------------------------------------
 

@@ -176,7 +176,7 @@ def _shard_metadata(job: ShardJob) -> dict[str, dict[str, str]]:
             "base_seed": str(job.base_seed),
             "scenes": f"{job.start}-{job.stop}",
         },
-        "recipe": {"name": job.recipe.name, "yaml": job.recipe.text,
+        "recipe": {"name": job.recipe.name, "yaml": job.recipe.text, "resolved_yaml": job.recipe.resolved_yaml,
                    "resolved_json": json.dumps(job.recipe.data, sort_keys=True)},
     }
 
@@ -380,6 +380,7 @@ def build_manifest(recipe: Recipe, catalogue: Catalogue, base_seed: int, scenes_
         "recipe": recipe.name,
         "recipe_hash": recipe.hash,
         "recipe_yaml": recipe.text,
+        "recipe_resolved_yaml": recipe.resolved_yaml,  # loads on its own, parents and all
         "catalogue_sha256": catalogue.sha256,
         "base_seed": base_seed,
         "scenes_per_shard": scenes_per_shard,

@@ -119,11 +119,14 @@ def test_usd_camera_with_an_off_centre_principal_point(tmp_path):
 
 
 def test_usd_refuses_a_recipe_or_catalogue_that_changed(multiview_dataset, tmp_path):
-    for key, value, message in (("recipe_yaml", None, "recipe text"), ("catalogue_sha256", "0" * 64, "catalogue")):
+    for key, value, message in (("recipe_resolved_yaml", None, "recipe text"),
+                                ("catalogue_sha256", "0" * 64, "catalogue")):
         copy = tmp_path / key
         shutil.copytree(multiview_dataset, copy)
         manifest = json.loads((copy / "manifest.json").read_text())
-        manifest[key] = value if value else manifest[key].replace("count: [3, 6]", "count: [3, 5]")
+        changed = manifest[key].replace("per_view: 8", "per_view: 7") if not value else value
+        assert changed != manifest[key]
+        manifest[key] = changed
         (copy / "manifest.json").write_text(json.dumps(manifest))
         with pytest.raises(ExportError, match=message):
             export("usd", copy, tmp_path / f"out-{key}")

@@ -63,3 +63,10 @@ def test_extends_cycle_is_reported(tmp_path):
 def test_unknown_recipe_lists_known_ones():
     with pytest.raises(RecipeError, match="tabletop"):
         load_recipe("kitchen_of_dreams")
+
+
+def test_resolved_yaml_loads_alone_to_the_same_hash(tiny, tmp_path):
+    alone = tmp_path / "alone.yaml"
+    alone.write_text(tiny.resolved_yaml)
+    again = load_recipe(str(alone))
+    assert "extends" not in tiny.resolved_yaml and again.hash == tiny.hash and again.data == tiny.data

@@ -54,7 +54,8 @@ def _recipe(dataset_dir: Path, manifest: dict) -> Recipe:
     """The recipe the records were made with, from its stored YAML text."""
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / f"{manifest['recipe']}.yaml"
-        path.write_text(manifest["recipe_yaml"], encoding="utf-8")
+        # Datasets since the resolved recipe was stored rebuild without the recipes they extend.
+        path.write_text(manifest.get("recipe_resolved_yaml", manifest["recipe_yaml"]), encoding="utf-8")
         try:
             recipe = load_recipe(str(path))
         except RecipeError as e:
