@@ -18,6 +18,7 @@ from .program import ORDINAL_AXES, Node, ProgramError, execute, is_degenerate
 
 MAX_RANK = 3
 COMBOS_CHECKED = 4000  # part combinations checked by candidate sets per shape (cheap set operations)
+COMBOS_WANTED = 24  # enough fitting combinations to choose from with variety
 
 
 def relation_predicates(phrased: set[str], arity: int) -> list[str]:
@@ -156,8 +157,13 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
     category = None if any_category else target.category
     out: list[Ref] = []
     for color in heads:
+        empty = ("no_fit", target.object_id, category, color, steps)
+        if empty in view.cache:  # a search that found nothing is not worth repeating on this view
+            continue
         head, scored = _scored_parts(view, target, category, color, parts)
         combos = _fitting_combinations(target.object_id, head, scored, COMBOS.get(steps, ()), rng)
+        if not combos:
+            view.cache[empty] = True
         # Choose the first part's predicate uniformly, so frequent relations do not crowd out rare ones.
         while combos and len(out) < 2:
             names = sorted({c[0].rel.predicate for c in combos})
@@ -221,6 +227,8 @@ def _fitting_combinations(target: int, head: frozenset, scored, shapes, rng) -> 
                 continue
             if _picks_only(target, head, [(p.kept, p.undecided) for p in combo]):
                 found.append(combo)
+                if len(found) >= COMBOS_WANTED:
+                    return found
     return found
 
 
