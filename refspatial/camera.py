@@ -26,7 +26,10 @@ def frame_cameras(scene: Scene, recipe: Recipe) -> Scene:
     spec = recipe["camera"]
     rng = stage_rng(recipe.hash, scene.seed, "camera")
     corners = _object_corners(scene)
-    aim = np.array([*((corners[:, :2].min(0) + corners[:, :2].max(0)) / 2), scene.table.top_z_m])
+    # Aim at the middle of the objects on the ground plane, at the table top (mid-shelf on a shelf).
+    levels = scene.table.levels_m
+    aim_z = scene.table.top_z_m + (0.5 * max(levels) if levels else 0.0)
+    aim = np.array([*((corners[:, :2].min(0) + corners[:, :2].max(0)) / 2), aim_z])
     cams = []
     for view in range(spec["views"]):
         cams.append(_frame_one(f"view{view}", corners, aim, spec, rng))
@@ -59,7 +62,7 @@ def _object_corners(scene: Scene) -> np.ndarray:
 
 def _frame_one(name: str, corners: np.ndarray, aim: np.ndarray, spec: dict, rng: np.random.Generator) -> Camera:
     for _ in range(spec["attempts"]):
-        yaw = float(rng.uniform(-np.pi, np.pi))
+        yaw = float(np.radians(rng.uniform(*spec["yaw_deg"])))
         pitch = float(np.radians(rng.uniform(*spec["pitch_deg"])))
         fovy = float(rng.uniform(*spec["fovy_deg"]))
         rot = look_rotation(yaw, pitch)

@@ -13,7 +13,7 @@ import numpy as np
 
 from .assets import Catalogue, build_asset
 from .recipe import Recipe
-from .scene import Asset, Light, PlacedObject, Pose, Scene, Table, yaw_quat
+from .scene import BOARD_M, Asset, Light, PlacedObject, Pose, Scene, Table, yaw_quat
 from .seeding import stage_rng
 
 PLACEMENT_TRIES = 200  # per object, before the scene is rejected as too crowded
@@ -74,6 +74,7 @@ def _sample_table(recipe: Recipe, rng: np.random.Generator) -> Table:
         top_z_m=float(spec["top_z_m"]),
         rgba=(*map(float, color), 1.0),
         texture=texture,
+        levels_m=tuple(float(h) for h in spec["levels_m"]),
     )
 
 
@@ -114,7 +115,8 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Gen
     slack = np.maximum(np.array(table.size_m) - side, 0) / 2
     centre = rng.uniform(-slack, slack)
     placed: list[PlacedObject] = []
-    quads: list[np.ndarray] = []
+    surfaces = surface_heights(table)
+    quads: list[list[np.ndarray]] = [[] for _ in surfaces]  # footprints already placed, per surface
     hosts: list[PlacedObject] = []  # containers and supports still free to take one object
     # Big things first: they are the hardest to fit, and they host the small ones.
     order = sorted(range(len(assets)), key=lambda i: -float(np.prod(assets[i].size_m[:2])))
@@ -124,17 +126,18 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Gen
         if on_host is not None:
             placed.append(on_host)
             continue
+        level = _level(asset, surfaces, rng)
         for _ in range(PLACEMENT_TRIES):
             x, y = centre + rng.uniform(-side / 2, side / 2, size=2)
             yaw = float(rng.uniform(-np.pi, np.pi))
             quad = footprint_corners(asset, x, y, yaw, grow_m=spec["min_gap_m"] / 2)
             inside = np.all(np.abs(quad) <= np.array(table.size_m) / 2 - 0.02)
-            if inside and not any(boxes_overlap(quad, q) for q in quads):
+            if level is not None and inside and not any(boxes_overlap(quad, q) for q in quads[level]):
                 break
         else:
             continue  # left out; the scene is rejected below only if too few objects remain
-        quads.append(quad)
-        z = table.top_z_m + spec["drop_height_m"]
+        quads[level].append(quad)
+        z = surfaces[level] + spec["drop_height_m"]
         placed.append(PlacedObject(i, asset, Pose((float(x), float(y), z), yaw_quat(yaw))))
         if asset.cavity is not None or asset.support:
             hosts.append(placed[-1])
@@ -144,6 +147,20 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Gen
     # Ids stay 0..n-1 in draw order, whatever was left out.
     kept = sorted(placed, key=lambda o: o.object_id)
     return tuple(dataclasses.replace(o, object_id=k) for k, o in enumerate(kept))
+
+
+def surface_heights(table: Table) -> list[float]:
+    """World heights of the table top and of each shelf board above it."""
+    return [table.top_z_m] + [table.top_z_m + h for h in table.levels_m]
+
+
+def _level(asset: Asset, surfaces: list[float], rng: np.random.Generator) -> int | None:
+    """A surface the object fits under the next board on (clearance for a hand), or None."""
+    clearance = 0.04
+    fits = [k for k, z in enumerate(surfaces)
+            if k + 1 == len(surfaces) or z + float(asset.size_m[2]) + clearance < surfaces[k + 1] - BOARD_M]
+    k = int(rng.integers(len(surfaces)))  # drawn whatever fits, so the stream does not shift
+    return (k if k in fits else fits[0]) if fits else None
 
 
 def _on_host(i: int, asset: Asset, hosts: list[PlacedObject], spec: dict, rng: np.random.Generator):

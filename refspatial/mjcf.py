@@ -17,7 +17,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .assets import MaterialSpec  # noqa: E402
-from .scene import Scene  # noqa: E402
+from .scene import BOARD_M, Scene  # noqa: E402
 
 VISUAL_GROUP = 0
 COLLISION_GROUP = 3
@@ -116,7 +116,13 @@ def _add_room(spec: mujoco.MjSpec, scene: Scene) -> None:
         name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=[0, 0, t.top_z_m - half[2]],
         material="table_mat", friction=FRICTION, condim=6,
     )
-    leg_h = (t.top_z_m - TABLE_THICKNESS_M) / 2
+    for k, h in enumerate(t.levels_m):  # shelf boards: supports like the top, named so physics can tell
+        world.add_geom(
+            name=f"board{k}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[half[0], half[1], BOARD_M / 2],
+            pos=[0, 0, t.top_z_m + h - BOARD_M / 2], material="table_mat", friction=FRICTION, condim=6,
+        )
+    # Legs, continued up as posts to the highest board on a shelf.
+    leg_h = (t.top_z_m + (max(t.levels_m) if t.levels_m else 0.0) - TABLE_THICKNESS_M) / 2
     for sx in (-1, 1):
         for sy in (-1, 1):
             world.add_geom(

@@ -105,6 +105,12 @@ def _colors(v: Any) -> str | None:
     return "expected a non-empty list of [r, g, b] with components in [0, 1]"
 
 
+def _levels(v: Any) -> str | None:
+    if isinstance(v, list) and all(_number(x) and 0.1 <= x <= 3 for x in v) and v == sorted(set(v)):
+        return None
+    return "expected a list of increasing shelf-board heights above the top, each in [0.1, 3] m ([] for none)"
+
+
 def _size_ranges(v: Any) -> str | None:
     if isinstance(v, list) and len(v) == 2 and all(_range(0.05, 20)(r) is None for r in v):
         return None
@@ -130,11 +136,13 @@ SCHEMA: dict[str, dict[str, Callable[[Any], str | None]]] = {
         "colors": _colors,
         "textures": _textures,
         "region_m": _range(0.1, 5),
+        "levels_m": _levels,
     },
     "camera": {
         "views": _scalar(1, 16, integer=True),
         "width": _scalar(16, 8192, integer=True),
         "height": _scalar(16, 8192, integer=True),
+        "yaw_deg": _range(-360, 360),
         "pitch_deg": _range(-89, -1),
         "height_above_table_m": _range(0.05, 10),
         "fovy_deg": _range(10, 120),

@@ -81,12 +81,18 @@ class PlacedObject:
     pose: Pose
 
 
+BOARD_M = 0.02  # shelf board thickness
+
+
 @dataclass(frozen=True)
 class Table:
     size_m: tuple[float, float]  # extents along world x and y
     top_z_m: float
     rgba: tuple[float, float, float, float]
     texture: str  # a MuJoCo builtin: "checker", "gradient" or "flat"
+    # Shelf boards above the top, as heights over it (empty for a plain table). Board k is
+    # support id -(k + 2): -1 is the table top itself.
+    levels_m: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)

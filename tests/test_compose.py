@@ -76,3 +76,25 @@ def test_overlap_test_on_known_boxes():
     diamond = np.array([[1.6, 0.5], [2.1, 0.0], [2.6, 0.5], [2.1, 1.0]])
     assert not boxes_overlap(square, diamond)
     assert boxes_overlap(square, diamond - [0.7, 0])
+
+
+def test_shelf_recipe_spreads_objects_over_its_boards(catalogue):
+    from refspatial.compose import surface_heights
+    from refspatial.recipe import load_recipe
+    from refspatial.scene import BOARD_M
+
+    shelf = load_recipe("shelf")
+    levels_used = set()
+    for seed in range(6):
+        scene = compose(shelf, catalogue, seed)
+        heights = surface_heights(scene.table)
+        drop = shelf["objects"]["drop_height_m"]
+        for o in scene.objects:
+            z = o.pose.pos_world_m[2] - drop
+            level = int(np.argmin([abs(z - h) for h in heights]))
+            if abs(z - heights[level]) > 1e-9:
+                continue  # hosted on another object
+            levels_used.add(level)
+            if level + 1 < len(heights):  # fits under the board above it
+                assert z + o.asset.size_m[2] < heights[level + 1] - BOARD_M
+    assert levels_used == {0, 1, 2}

@@ -129,3 +129,18 @@ def test_a_different_run_into_the_same_folder_is_refused(tiny, catalogue, tmp_pa
     generate(out, tiny, catalogue, n_scenes=1, base_seed=1, workers=1, scenes_per_shard=2)
     with pytest.raises(RunError, match="already holds a dataset"):
         generate(out, tiny, catalogue, n_scenes=1, base_seed=2, workers=1, scenes_per_shard=2)
+
+
+@pytest.mark.parametrize("family", ["tabletop", "kitchen_counter", "shelf"])
+def test_every_scene_family_generates_and_verifies(family, catalogue, tmp_path):
+    from refspatial.recipe import load_recipe
+
+    small = tmp_path / f"{family}_small.yaml"
+    small.write_text(f"extends: {family}\nname: {family}_small\ncamera: {{width: 192, height: 108}}\n"
+                     "questions: {per_view: 6}\n")
+    out = tmp_path / "ds"
+    manifest = generate(out, load_recipe(str(small)), catalogue, n_scenes=2, base_seed=3, workers=1,
+                        scenes_per_shard=2)
+    assert manifest["records"] >= 2 and manifest["qa"] >= 12
+    report = verify(out)
+    assert report.failures == [] and report.qa == manifest["qa"]

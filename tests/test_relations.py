@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from refspatial.relations import PREDICATES, computed_relations
+from refspatial.relations import PREDICATES, TABLE, computed_relations
 from refspatial.relations.directional import MIN_MARGIN_M
 from refspatial.scene import Cavity
 
@@ -149,3 +149,15 @@ def test_every_predicate_documents_its_definition():
         assert pred.fn.__doc__ and len(pred.fn.__doc__) > 40, name
         assert pred.frame in {"viewer", "world", "image", "camera", "object"}
         assert pred.kind in {"relation", "measure", "region"}
+
+
+def test_supports_include_shelf_boards():
+    from refspatial.relations.facts import _with_supports, surfaces
+
+    low = obj(0, "mug", "red", -0.2, 0.0, z=0.0)
+    high = obj(1, "cup", "blue", 0.2, 0.0, z=0.40)
+    floating = obj(2, "bowl", "green", 0.0, 0.2, z=0.2)
+    out = _with_supports([low, high, floating], surfaces(0.0, (0.4, 0.8)), np.array([1.2, 0.8]))
+    assert [o.support for o in out] == [TABLE, -2, None]
+    v = view(low, high)
+    assert PREDICATES["above"](v, high, low) is False  # higher, but the footprints do not meet

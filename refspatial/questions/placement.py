@@ -30,7 +30,7 @@ def placement(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.rando
     if "on_top" in shape:
         candidates = [o for o in candidates if o.is_support]
     else:
-        candidates = [o for o in candidates if o.support == TABLE]
+        candidates = [o for o in candidates if o.support <= TABLE]  # the table top or a shelf board
     if len(candidates) < need:
         return None
     chosen = [candidates[int(i)] for i in rng.choice(len(candidates), size=need, replace=False)]

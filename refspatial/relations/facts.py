@@ -83,6 +83,7 @@ class ViewFacts:
     T_world_cam: np.ndarray | None = None  # (4, 4) OpenCV camera
     table_size_m: tuple[float, float] = (0.0, 0.0)  # table extents along world x, y (centred at the origin)
     table_top_z_m: float = 0.0
+    table_levels_m: tuple[float, ...] = ()  # shelf boards above the top; board k is support -(k + 2)
     contacts: frozenset[tuple[int, int]] = frozenset()  # object pairs touching, smaller id first, -1 = table
     # Memo of derived values (predicate verdicts, descriptions): question search asks the same things often.
     cache: dict = field(default_factory=dict, repr=False)
@@ -105,9 +106,16 @@ def view_facts(scene: Scene, view: View) -> ViewFacts:
     counts = np.bincount(view.seg.ravel() + 1, minlength=len(scene.objects) + 1)[1:]
     min_px = max(MIN_VISIBLE_PX, VISIBLE_SHARE_OF_IMAGE * view.seg.size)
     objects = [_object_facts(o, view, right, forward, int(counts[o.object_id]), min_px) for o in scene.objects]
-    objects = _with_supports(objects, scene.table.top_z_m, np.array(scene.table.size_m))
+    objects = _with_supports(objects, surfaces(scene.table.top_z_m, scene.table.levels_m),
+                             np.array(scene.table.size_m))
     return ViewFacts(tuple(objects), right, forward, view.seg, view.depth_m, view.K, view.T_world_cam,
-                     tuple(scene.table.size_m), scene.table.top_z_m, frozenset(scene.contacts))
+                     tuple(scene.table.size_m), scene.table.top_z_m, tuple(scene.table.levels_m),
+                     frozenset(scene.contacts))
+
+
+def surfaces(top_z: float, levels: tuple[float, ...]) -> dict[int, float]:
+    """Support id -> world height of the table top (TABLE) and of each shelf board."""
+    return {TABLE: top_z, **{-(k + 2): top_z + h for k, h in enumerate(levels)}}
 
 
 def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px: float) -> ObjectFacts:
@@ -155,18 +163,23 @@ def _silhouette_px(verts_world: np.ndarray, faces: np.ndarray, view: View) -> in
     return int(canvas.sum())
 
 
-def _with_supports(objects: list[ObjectFacts], table_z: float, table_size: np.ndarray) -> list[ObjectFacts]:
-    """Attach what each object stands on, by RefSpatial's rule (top within 5 cm, covers >= 70 %)."""
+def _with_supports(objects: list[ObjectFacts], fixed: dict[int, float], table_size: np.ndarray) -> list[ObjectFacts]:
+    """Attach what each object stands on, by RefSpatial's rule (top within 5 cm, covers >= 70 %).
+
+    ``fixed`` are the table top and shelf boards (support id -> height); objects win over them.
+    """
     from dataclasses import replace
 
+    table_z = fixed[TABLE]
     out = []
     for o in objects:
         bottom = o.aabb_world_m[0, 2]
         support = None
-        if abs(bottom - table_z) <= SUPPORT_GAP_M and np.all(np.abs(o.center_world_m[:2]) <= table_size / 2):
-            support = TABLE
+        if np.all(np.abs(o.center_world_m[:2]) <= table_size / 2):
+            near = [(abs(bottom - z), sid) for sid, z in fixed.items() if abs(bottom - z) <= SUPPORT_GAP_M]
+            support = min(near)[1] if near else None
         candidates = [p for p in objects if p is not o and abs(bottom - p.aabb_world_m[1, 2]) <= SUPPORT_GAP_M
-                      and p.aabb_world_m[1, 2] > table_z + 0.005]
+                      and p.aabb_world_m[1, 2] > table_z + 0.005 and p.aabb_world_m[0, 2] < bottom]
         for p in sorted(candidates, key=lambda p: -p.aabb_world_m[1, 2]):
             if overlap_share(o.footprint_world, p.footprint_world) >= SUPPORT_COVER:
                 support = p.object_id

@@ -39,6 +39,7 @@ MIN_VISIBLE_SHARE = 0.3
 CLEARANCE_M = 0.015  # free cells keep this far from obstacle footprints
 EDGE_MARGIN_M = 0.02  # and this far inside the platform's edge
 OFFSET_CLEARANCE_M = 0.02
+OBSTACLE_BAND_M = 0.05  # objects reaching into this band above the platform are in the way
 DIRECTIONS = ("left", "right", "front", "behind")
 
 
@@ -85,7 +86,7 @@ def solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool = T
         return None
     support, polygon, z = platform
     cells = _grid(v, constraints, polygon)
-    keep = _in_regions(v, constraints, cells) & _free(v, cells, support, polygon)
+    keep = _in_regions(v, constraints, cells) & _free(v, cells, support, polygon, z)
     area = float(keep.sum() * CELL_M**2)
     if not any(c.kind == "offset" for c in constraints) and area <= MIN_FREE_AREA_M2:
         return None
@@ -127,9 +128,10 @@ def _platform(v: ViewFacts, constraints, anchors: list[ObjectFacts]):
     if len(supports) != 1 or None in supports:
         return None
     support = supports.pop()
-    if support == TABLE:
+    if support <= TABLE:  # the table top, or a shelf board (support -(k + 2)) of the same extent
         hx, hy = np.asarray(v.table_size_m) / 2
-        return TABLE, np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]), v.table_top_z_m
+        z = v.table_top_z_m if support == TABLE else v.table_top_z_m + v.table_levels_m[-support - 2]
+        return support, np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]), z
     base = v.objects[support]
     return support, base.footprint_world, float(base.aabb_world_m[1, 2])
 
@@ -195,10 +197,13 @@ def _offset(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
 REGIONS = {"sector": _sector, "between": _between, "on_top": _on_top, "offset": _offset}
 
 
-def _free(v: ViewFacts, points: np.ndarray, support: int, polygon: np.ndarray) -> np.ndarray:
+def _free(v: ViewFacts, points: np.ndarray, support: int, polygon: np.ndarray, z: float) -> np.ndarray:
+    """On the platform and clear of every object that occupies the space just above it (seen or not):
+    the platform itself is not an obstacle, nor is anything on a shelf board below or above."""
     keep = inside_convex(points, polygon, grow=-EDGE_MARGIN_M)
     for o in v.objects:
-        if o.object_id != support:  # everything but the platform itself is in the way, seen or not
+        lo, hi = o.aabb_world_m[0, 2], o.aabb_world_m[1, 2]
+        if o.object_id != support and lo < z + OBSTACLE_BAND_M and hi > z + 0.005:
             keep &= ~inside_convex(points, o.footprint_world, grow=CLEARANCE_M)
     return keep
 
@@ -235,7 +240,7 @@ def _image_mask(v: ViewFacts, constraints, support: int, polygon: np.ndarray, z:
     hit = t[:2] + dirs[:, :2] * s[:, None]
     ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1].reshape(-1) - s) <= OCCLUSION_M)
     idx = np.nonzero(ok)[0]
-    good = _in_regions(v, constraints, hit[idx]) & _free(v, hit[idx], support, polygon)
+    good = _in_regions(v, constraints, hit[idx]) & _free(v, hit[idx], support, polygon, z)
     window = np.zeros(len(ok), dtype=bool)
     window[idx[good]] = True
     mask[r0:r1, c0:c1] = window.reshape(r1 - r0, c1 - c0)

@@ -61,8 +61,9 @@ def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.n
     objects = tuple(_object_facts(o, seg, depth_m, right, forward) for o in scene["objects"])
     contacts = frozenset(tuple(p) for p in scene.get("contacts", []))
     table = scene["table"]
+    levels = tuple(table.get("levels_m", ()))
     return ViewFacts(objects, right, forward, seg, depth_m, K, T, tuple(table["size_m"]), table["top_z_m"],
-                     contacts)
+                     levels, contacts)
 
 
 def _object_facts(o: dict, seg: np.ndarray, depth_m: np.ndarray, right, forward) -> ObjectFacts:
