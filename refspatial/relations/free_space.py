@@ -77,9 +77,18 @@ def direction_axis(v: ViewFacts, direction: str) -> np.ndarray:
 def solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool = True) -> FreeSpace | None:
     """The free-space answer meeting every constraint, or None when there is none.
 
-    The image mask costs a pass over every pixel; statistics that need only the
-    point and area skip it (``with_mask=False``; ``mask`` is then None).
+    The image mask costs a pass over a window of pixels; statistics that need only
+    the point and area skip it (``with_mask=False``; ``mask`` is then None). Answers
+    are memoised per view: a placement question executes its program, then asks
+    for the mask of the same answer.
     """
+    key = ("free_space", tuple(constraints), with_mask)
+    if key not in v.cache:
+        v.cache[key] = _solve(v, tuple(constraints), with_mask)
+    return v.cache[key]
+
+
+def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -> FreeSpace | None:
     anchors = [v.objects[i] for c in constraints for i in c.anchors]
     platform = _platform(v, constraints, anchors)
     if platform is None:
