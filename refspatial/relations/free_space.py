@@ -50,14 +50,6 @@ class Constraint:
     direction: str | None = None  # one of DIRECTIONS, for sector and offset
     offset_m: float | None = None  # for offset
 
-    def to_json(self) -> dict:
-        out = {"kind": self.kind, "anchors": list(self.anchors)}
-        if self.direction:
-            out["direction"] = self.direction
-        if self.offset_m is not None:
-            out["offset_m"] = self.offset_m
-        return out
-
 
 @dataclass(frozen=True, eq=False)
 class FreeSpace:
