@@ -15,7 +15,7 @@ The thresholds are the ones published with RefSpatial:
 - the answer is the mean of the visible valid cells, or the valid point nearest to it when the
   mean itself is not valid. The region's visible image mask is kept with the answer.
 Metric offsets ("10 cm to the right of the cup") solve for the single point that far beyond
-the anchor's extent, which must be free (2 cm clearance) and visible.
+the anchor's extent, which must be free (1.5 cm from any footprint) and visible.
 """
 
 from __future__ import annotations
@@ -38,7 +38,6 @@ OCCLUSION_M = 0.025
 MIN_VISIBLE_SHARE = 0.3
 CLEARANCE_M = 0.015  # free cells keep this far from obstacle footprints
 EDGE_MARGIN_M = 0.02  # and this far inside the platform's edge
-OFFSET_CLEARANCE_M = 0.02
 OBSTACLE_BAND_M = 0.05  # objects reaching into this band above the platform are in the way
 DIRECTIONS = ("left", "right", "front", "behind")
 
