@@ -82,7 +82,10 @@ def test_marginal_lookalike_blocks_descriptions():
 def test_unary_relation_description_counts_one_step():
     v = view(obj(0, "cup", "red", 0.0, 0.0), obj(1, "cup", "red", 0.1, 0.35), obj(2, "bowl", "red", -0.3, 0.0))
     refs = anchored_refs(v, v.objects[1], 1, np.random.default_rng(0), Phrasebook.get().phrased)
-    assert refs and all(r.relations[0].predicate in ("at_edge", "behind") or r.steps == 1 for r in refs)
+    assert refs
+    for r in refs:  # one unary relation: no anchor, one phrase, one step
+        assert len(r.relations) == 1 and r.relations[0].anchors == () and r.steps == 1
+        assert r.relations[0].predicate in ("at_edge", "at_corner")
     program, values = run(refs[0], v)
     assert values[-1] == 1 and count_steps(program) == 1
     text, _ = Phrasebook.get().describe(refs[0], np.random.default_rng(0), v)
