@@ -20,6 +20,7 @@ from .scene import Camera, Scene, matrix_to_quat
 from .seeding import stage_rng
 
 FIT_ITERATIONS = 30  # bisection steps on the viewing distance (sub-millimetre)
+WALL_CLEARANCE_M = 0.3  # a camera in a room keeps this far from the walls
 
 
 def frame_cameras(scene: Scene, recipe: Recipe) -> Scene:
@@ -30,9 +31,11 @@ def frame_cameras(scene: Scene, recipe: Recipe) -> Scene:
     levels = scene.table.levels_m
     aim_z = scene.table.top_z_m + (0.5 * max(levels) if levels else 0.0)
     aim = np.array([*((corners[:, :2].min(0) + corners[:, :2].max(0)) / 2), aim_z])
+    # In a room the camera stays inside the walls (a floor's edges), with room for a head.
+    room = np.array(scene.table.size_m) / 2 - WALL_CLEARANCE_M if scene.table.surface == "floor" else None
     cams = []
     for view in range(spec["views"]):
-        cams.append(_frame_one(f"view{view}", corners, aim, spec, rng))
+        cams.append(_frame_one(f"view{view}", corners, aim, spec, rng, room))
     return dataclasses.replace(scene, cameras=tuple(cams))
 
 
@@ -60,7 +63,8 @@ def _object_corners(scene: Scene) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _frame_one(name: str, corners: np.ndarray, aim: np.ndarray, spec: dict, rng: np.random.Generator) -> Camera:
+def _frame_one(name: str, corners: np.ndarray, aim: np.ndarray, spec: dict, rng: np.random.Generator,
+               room: np.ndarray | None = None) -> Camera:
     for _ in range(spec["attempts"]):
         yaw = float(np.radians(rng.uniform(*spec["yaw_deg"])))
         pitch = float(np.radians(rng.uniform(*spec["pitch_deg"])))
@@ -69,6 +73,12 @@ def _frame_one(name: str, corners: np.ndarray, aim: np.ndarray, spec: dict, rng:
         quat = matrix_to_quat(rot)
         h_lo, h_hi = spec["height_above_table_m"]
         d_lo, d_hi = h_lo / np.sin(-pitch), h_hi / np.sin(-pitch)
+        if room is not None:  # no farther than the walls (half extents ``room`` about the origin)
+            back = rot[:2, 2]
+            reach = [(room[k] - np.sign(back[k]) * aim[k]) / abs(back[k]) for k in (0, 1) if abs(back[k]) > 1e-9]
+            d_hi = min(d_hi, *reach)
+            if d_hi < d_lo:
+                continue
 
         def camera_at(d: float) -> Camera:
             pos = aim + d * rot[:, 2]  # the camera's +z points back, away from what it sees

@@ -1,4 +1,7 @@
-"""Scene composition: pick assets and lay them out on a table without overlap.
+"""Scene composition: pick assets and lay them out on a table (or a floor) without overlap.
+
+Furniture, where a recipe asks for it, stands on the floor first; objects then go on the
+floor, into containers, onto small supports, or onto the tops of the furniture.
 
 Pure: ``compose(recipe, catalogue, seed)`` returns the same Scene for the same
 inputs. Cameras are framed later (``camera.py``), once physics has settled the
@@ -10,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
 from .assets import Catalogue, build_asset
 from .recipe import Recipe
@@ -19,6 +23,9 @@ from .seeding import stage_rng
 PLACEMENT_TRIES = 200  # per object, before the scene is rejected as too crowded
 MAX_FILL = 0.3  # footprints may cover at most this share of the placement region
 HOST_FIT = 0.8  # a hosted object's footprint circle must fit within this share of the cavity or top face
+FURNITURE_GROUP = "furniture"  # catalogue group of the pieces a recipe's `furniture` section places
+FURNITURE_REPEAT = 0.35  # chance that the next piece repeats one already drawn (two chairs, two stools)
+TOP_MARGIN_M = 0.03  # objects on a piece of furniture keep this far inside its top's outline
 
 
 class SceneRejected(RuntimeError):
@@ -31,33 +38,50 @@ class SceneRejected(RuntimeError):
 
 def compose(recipe: Recipe, catalogue: Catalogue, seed: int) -> Scene:
     table = _sample_table(recipe, stage_rng(recipe.hash, seed, "table"))
-    assets = _sample_assets(recipe, catalogue, stage_rng(recipe.hash, seed, "assets"))
-    objects = _place(recipe, table, assets, stage_rng(recipe.hash, seed, "layout"))
+    furniture: list[Asset] = []
+    if recipe.option("furniture", "count")[1] > 0:  # no draw otherwise: older recipes keep their scenes
+        furniture = _sample_furniture(recipe, catalogue, stage_rng(recipe.hash, seed, "furniture"))
+    assets = furniture + _sample_assets(recipe, catalogue, stage_rng(recipe.hash, seed, "assets"))
+    objects = _place(recipe, table, assets, len(furniture), stage_rng(recipe.hash, seed, "layout"))
     light = _sample_light(recipe, stage_rng(recipe.hash, seed, "light"))
     return Scene(recipe.name, recipe.hash, seed, table, objects, cameras=(), light=light)
 
 
-def category_pool(recipe: Recipe, catalogue: Catalogue) -> list[str]:
-    wanted = recipe["objects"]["categories"]
+def category_pool(recipe: Recipe, catalogue: Catalogue, section: str = "objects") -> list[str]:
+    """The categories a recipe section draws from. "all" means every category outside the
+    furniture group for objects, and every furniture category for furniture."""
+    wanted = recipe[section]["categories"] if section == "objects" else recipe.option(section, "categories")
+    is_furniture = section == "furniture"
+    fitting = sorted(k for k, c in catalogue.categories.items() if (c.group == FURNITURE_GROUP) == is_furniture)
     if wanted == "all":
-        return sorted(catalogue.categories)
-    missing = [c for c in wanted if c not in catalogue.categories]
-    if missing:
+        return fitting
+    wrong = [c for c in wanted if c not in fitting]
+    if wrong:
+        kind = "furniture" if is_furniture else "non-furniture"
         raise ValueError(
-            f"{recipe.path}: objects.categories: {missing[0]!r} is not in the asset catalogue; "
-            f"known: {', '.join(sorted(catalogue.categories))}"
+            f"{recipe.path}: {section}.categories: {wrong[0]!r} is not a {kind} category of the asset catalogue; "
+            f"known: {', '.join(fitting)}"
         )
     return list(wanted)
 
 
 def _sample_assets(recipe: Recipe, catalogue: Catalogue, rng: np.random.Generator) -> list[Asset]:
     spec = recipe["objects"]
-    pool = category_pool(recipe, catalogue)
-    n = int(rng.integers(spec["count"][0], spec["count"][1] + 1))
+    return _draw(catalogue, category_pool(recipe, catalogue), spec["count"], spec["repeat_category"], rng)
+
+
+def _sample_furniture(recipe: Recipe, catalogue: Catalogue, rng: np.random.Generator) -> list[Asset]:
+    pool = category_pool(recipe, catalogue, "furniture")
+    return _draw(catalogue, pool, recipe.option("furniture", "count"), FURNITURE_REPEAT, rng)
+
+
+def _draw(catalogue: Catalogue, pool: list[str], count: list[int], repeat: float,
+          rng: np.random.Generator) -> list[Asset]:
+    n = int(rng.integers(count[0], count[1] + 1))
     chosen: list[str] = []
     for _ in range(n):
         # Repeats make ordinals ("the second mug from the left") necessary.
-        if chosen and rng.random() < spec["repeat_category"]:
+        if chosen and rng.random() < repeat:
             chosen.append(chosen[int(rng.integers(len(chosen)))])
         else:
             chosen.append(pool[int(rng.integers(len(pool)))])
@@ -75,6 +99,7 @@ def _sample_table(recipe: Recipe, rng: np.random.Generator) -> Table:
         rgba=(*map(float, color), 1.0),
         texture=texture,
         levels_m=tuple(float(h) for h in spec["levels_m"]),
+        surface=recipe.option("table", "surface"),
     )
 
 
@@ -105,7 +130,9 @@ def boxes_overlap(a: np.ndarray, b: np.ndarray) -> bool:
     return True
 
 
-def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Generator) -> tuple[PlacedObject, ...]:
+def _place(recipe: Recipe, table: Table, assets: list[Asset], n_furniture: int,
+           rng: np.random.Generator) -> tuple[PlacedObject, ...]:
+    """Lay out the assets; the first ``n_furniture`` are furniture and stand on the table/floor."""
     spec = recipe["objects"]
     side = float(rng.uniform(*recipe["table"]["region_m"]))
     # Grow the region for big object sets (several plates) instead of rejecting them.
@@ -118,15 +145,18 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Gen
     surfaces = surface_heights(table)
     quads: list[list[np.ndarray]] = [[] for _ in surfaces]  # footprints already placed, per surface
     hosts: list[PlacedObject] = []  # containers and supports still free to take one object
-    # Big things first: they are the hardest to fit, and they host the small ones.
-    order = sorted(range(len(assets)), key=lambda i: -float(np.prod(assets[i].size_m[:2])))
+    tops: list[_Top] = []  # furniture tops that take several objects
+    # Furniture first, then big things: they are the hardest to fit, and they host the small ones.
+    order = sorted(range(len(assets)), key=lambda i: (i >= n_furniture, -float(np.prod(assets[i].size_m[:2]))))
     for i in order:
-        asset = assets[i]
-        on_host = _on_host(i, asset, hosts, spec, rng)
+        asset, furniture = assets[i], i < n_furniture
+        on_host = None if furniture else _on_host(i, asset, hosts, spec, rng)
+        if on_host is None and tops:
+            on_host = _on_top(i, asset, tops, recipe.option("objects", "on_furniture"), spec, rng)
         if on_host is not None:
             placed.append(on_host)
             continue
-        level = _level(asset, surfaces, rng)
+        level = 0 if furniture else _level(asset, surfaces, rng)
         for _ in range(PLACEMENT_TRIES):
             x, y = centre + rng.uniform(-side / 2, side / 2, size=2)
             yaw = float(rng.uniform(-np.pi, np.pi))
@@ -139,14 +169,63 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], rng: np.random.Gen
         quads[level].append(quad)
         z = surfaces[level] + spec["drop_height_m"]
         placed.append(PlacedObject(i, asset, Pose((float(x), float(y), z), yaw_quat(yaw))))
-        if asset.cavity is not None or asset.support:
+        if furniture and asset.support:
+            tops.append(_Top(placed[-1], top_outline(asset)))
+        elif not furniture and (asset.cavity is not None or asset.support):
             hosts.append(placed[-1])
-    if len(placed) < spec["count"][0]:
+    if len(placed) - n_furniture < spec["count"][0] or sum(o.object_id < n_furniture for o in placed) < \
+            recipe.option("furniture", "count")[0]:
         missing = len(assets) - len(placed)
         raise SceneRejected("crowded", f"{missing} of {len(assets)} objects found no room after {PLACEMENT_TRIES} tries")
     # Ids stay 0..n-1 in draw order, whatever was left out.
     kept = sorted(placed, key=lambda o: o.object_id)
     return tuple(dataclasses.replace(o, object_id=k) for k, o in enumerate(kept))
+
+
+@dataclasses.dataclass
+class _Top:
+    """A piece of furniture's top face, and the footprints already put on it (its own frame)."""
+
+    piece: PlacedObject
+    outline: np.ndarray  # (K, 2) convex, counter-clockwise, object frame
+    quads: list[np.ndarray] = dataclasses.field(default_factory=list)
+
+
+def top_outline(asset: Asset) -> np.ndarray:
+    """The convex outline, in the object frame, of the flat top face an asset's highest vertices form."""
+    v = asset.visual.vertices_m
+    top = v[v[:, 2] >= v[:, 2].max() - 1e-3, :2]
+    return top[ConvexHull(top).vertices]  # scipy orders a 2-D hull counter-clockwise
+
+
+def _inside_convex(outline: np.ndarray, points: np.ndarray, margin: float) -> bool:
+    """Every point at least ``margin`` inside a counter-clockwise convex outline."""
+    edges = np.roll(outline, -1, axis=0) - outline
+    rel = points[:, None, :] - outline[None, :, :]
+    cross = edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0]
+    return bool(np.all(cross >= margin * np.linalg.norm(edges, axis=1)[None, :]))
+
+
+def _on_top(i: int, asset: Asset, tops: list[_Top], odds: float, spec: dict, rng: np.random.Generator):
+    """Put the object somewhere on a furniture top, by the recipe's odds, if it finds room there."""
+    if rng.random() >= odds:
+        return None
+    top = tops[int(rng.integers(len(tops)))]
+    lo, hi = top.outline.min(0), top.outline.max(0)
+    for _ in range(PLACEMENT_TRIES // 4):
+        x, y = rng.uniform(lo, hi)
+        yaw = float(rng.uniform(-np.pi, np.pi))
+        quad = footprint_corners(asset, x, y, yaw, grow_m=spec["min_gap_m"] / 2)  # in the piece's frame
+        if _inside_convex(top.outline, quad, TOP_MARGIN_M) and not any(boxes_overlap(quad, q) for q in top.quads):
+            break
+    else:
+        return None
+    top.quads.append(quad)
+    T = top.piece.pose.matrix()
+    z_top = float(top.piece.asset.visual.bounds_m[1, 2])
+    pos = T[:3, :3] @ np.array([x, y, z_top]) + T[:3, 3] + np.array([0.0, 0.0, spec["drop_height_m"]])
+    piece_yaw = 2.0 * np.arctan2(top.piece.pose.quat_wxyz[3], top.piece.pose.quat_wxyz[0])
+    return PlacedObject(i, asset, Pose(tuple(float(c) for c in pos), yaw_quat(yaw + piece_yaw)))
 
 
 def surface_heights(table: Table) -> list[float]:

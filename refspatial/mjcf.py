@@ -23,7 +23,10 @@ VISUAL_GROUP = 0
 COLLISION_GROUP = 3
 TABLE_THICKNESS_M = 0.03
 DENSITY_KG_M3 = 600.0  # household objects are mostly hollow; a mean keeps masses plausible
-FRICTION = (1.0, 0.01, 0.002)  # sliding, torsional, rolling: rolling friction stops apples drifting
+FRICTION = (1.0, 0.01, 0.002)
+FLOOR_EXTENT_M = 5.0  # model extent for a room: the shadow map then spans the furniture, not just a table
+WALL_HEIGHT_M, WALL_THICKNESS_M = 2.6, 0.1
+WALL_RGBA = (0.86, 0.84, 0.80, 1.0)  # sliding, torsional, rolling: rolling friction stops apples drifting
 
 
 @dataclass(frozen=True)
@@ -86,7 +89,7 @@ def _visual_settings(spec: mujoco.MjSpec, scene: Scene, opts: SpecOptions) -> No
     # The sun's shadow map covers half the extent around the table: spent on the
     # whole floor it leaves too few texels, and the floor shows shadow acne.
     spec.visual.map.shadowclip = 0.5
-    spec.stat.extent = 2.0
+    spec.stat.extent = FLOOR_EXTENT_M if scene.table.surface == "floor" else 2.0
     spec.stat.center = [0.0, 0.0, scene.table.top_z_m]
 
 
@@ -108,9 +111,10 @@ def _add_room(spec: mujoco.MjSpec, scene: Scene) -> None:
     )
     table_mat = spec.add_material(name="table_mat", specular=0.2, shininess=0.3, texrepeat=[4, 4])
     table_mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "table_tex"
-    spec.add_material(name="floor_mat", rgba=[0.45, 0.43, 0.40, 1.0], specular=0.05)
     world = spec.worldbody
-    world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1], material="floor_mat")
+    if t.surface == "table":  # a floor under the table; a "floor" surface is itself the floor
+        spec.add_material(name="floor_mat", rgba=[0.45, 0.43, 0.40, 1.0], specular=0.05)
+        world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1], material="floor_mat")
     half = [t.size_m[0] / 2, t.size_m[1] / 2, TABLE_THICKNESS_M / 2]
     world.add_geom(
         name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=[0, 0, t.top_z_m - half[2]],
@@ -121,9 +125,19 @@ def _add_room(spec: mujoco.MjSpec, scene: Scene) -> None:
             name=f"board{k}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[half[0], half[1], BOARD_M / 2],
             pos=[0, 0, t.top_z_m + h - BOARD_M / 2], material="table_mat", friction=FRICTION, condim=6,
         )
+    if t.surface == "floor":  # walls along the floor's edges: a room, not a stage in a void
+        spec.add_material(name="wall_mat", rgba=list(WALL_RGBA), specular=0.05)
+        for axis in (0, 1):
+            for sign in (-1, 1):
+                size = [half[0] + WALL_THICKNESS_M, half[1] + WALL_THICKNESS_M, WALL_HEIGHT_M / 2]
+                size[axis] = WALL_THICKNESS_M / 2
+                pos = [0.0, 0.0, t.top_z_m + WALL_HEIGHT_M / 2]
+                pos[axis] = sign * (half[axis] + WALL_THICKNESS_M / 2)
+                world.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=size, pos=pos, material="wall_mat",
+                               contype=0, conaffinity=0)
     # Legs, continued up as posts to the highest board on a shelf.
     leg_h = (t.top_z_m + (max(t.levels_m) if t.levels_m else 0.0) - TABLE_THICKNESS_M) / 2
-    for sx in (-1, 1):
+    for sx in ((-1, 1) if t.surface == "table" else ()):
         for sy in (-1, 1):
             world.add_geom(
                 type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.025, 0.025, leg_h],

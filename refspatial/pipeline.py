@@ -102,7 +102,7 @@ def scene_dict(scene: Scene, index: int, view: View, facts: ViewFacts) -> dict:
                    "fovy_deg": round(cam.fovy_deg, 6)},
         "table": {"size_m": rounded(scene.table.size_m), "top_z_m": scene.table.top_z_m,
                   "levels_m": rounded(scene.table.levels_m), "rgba": rounded(scene.table.rgba, 4),
-                  "texture": scene.table.texture},
+                  "texture": scene.table.texture, "surface": scene.table.surface},
         "light": {"dir_world": rounded(scene.light.dir_world), "intensity": round(scene.light.intensity, 6)},
         "contacts": [list(p) for p in scene.contacts],
         "objects": [object_record(o, facts.objects[o.object_id]) for o in scene.objects],

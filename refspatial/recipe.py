@@ -33,6 +33,11 @@ class Recipe:
     def __getitem__(self, section: str) -> dict[str, Any]:
         return self.data[section]
 
+    def option(self, section: str, key: str) -> Any:
+        """An optional key's value, or its default. Defaults are not written into ``data``, so
+        recipes that leave a key out keep the hash (and the scenes) they had before it existed."""
+        return self.data.get(section, {}).get(key, OPTIONAL[section][key][1])
+
     @property
     def resolved_yaml(self) -> str:
         """The resolved recipe as standalone YAML: loads without its parents, to the same hash."""
@@ -111,6 +116,13 @@ def _levels(v: Any) -> str | None:
     return "expected a list of increasing shelf-board heights above the top, each in [0.1, 3] m ([] for none)"
 
 
+def _one_of(*allowed: str) -> Callable:
+    def check(v: Any) -> str | None:
+        return None if v in allowed else f"expected one of {list(allowed)}"
+
+    return check
+
+
 def _size_ranges(v: Any) -> str | None:
     if isinstance(v, list) and len(v) == 2 and all(_range(0.05, 20)(r) is None for r in v):
         return None
@@ -132,7 +144,7 @@ SCHEMA: dict[str, dict[str, Callable[[Any], str | None]]] = {
     },
     "table": {
         "size_m": _size_ranges,
-        "top_z_m": _scalar(0.1, 3),
+        "top_z_m": _scalar(0, 3),  # 0 for a floor
         "colors": _colors,
         "textures": _textures,
         "region_m": _range(0.1, 5),
@@ -170,7 +182,21 @@ SCHEMA: dict[str, dict[str, Callable[[Any], str | None]]] = {
         "steps": _weights(lambda k: isinstance(k, int) and 1 <= k <= MAX_STEPS, "step count"),
     },
 }
-TOP_LEVEL = {"name", "description", "extends", *SCHEMA}
+# Keys a recipe may leave out: section -> key -> (checker, default).
+OPTIONAL: dict[str, dict[str, tuple[Callable[[Any], str | None], Any]]] = {
+    "table": {
+        # "floor": the surface is a room's floor (no legs, no edge in view): at_edge/at_corner are not asked
+        "surface": (_one_of("table", "floor"), "table"),
+    },
+    "objects": {
+        "on_furniture": (_scalar(0, 1), 0.0),  # chance that an object goes on top of a piece of furniture
+    },
+    "furniture": {  # pieces standing on the surface before the objects come (catalogue group "furniture")
+        "count": (_range(0, 20, integer=True), [0, 0]),
+        "categories": (_categories, "all"),
+    },
+}
+TOP_LEVEL = {"name", "description", "extends", *SCHEMA, *OPTIONAL}
 
 
 # --- loading ----------------------------------------------------------------------------------
@@ -241,14 +267,19 @@ def _validate(path: Path, data: dict[str, Any]) -> None:
         raise RecipeError(f"{path}: unknown section {unknown[0]!r}; sections are {sorted(TOP_LEVEL)}")
     if not isinstance(data.get("name"), str) or not data["name"].replace("_", "").isalnum():
         raise RecipeError(f"{path}: name: expected a short identifier such as 'tabletop'")
-    for section, checks in SCHEMA.items():
-        values = data.get(section)
+    for section in [*SCHEMA, *(s for s in OPTIONAL if s not in SCHEMA)]:
+        required, optional = SCHEMA.get(section, {}), {k: c for k, (c, _) in OPTIONAL.get(section, {}).items()}
+        values = data.get(section, {} if section not in SCHEMA else None)
         if not isinstance(values, dict):
-            raise RecipeError(f"{path}: {section}: missing section (expected keys {sorted(checks)})")
-        for key in sorted(set(values) - set(checks)):
-            raise RecipeError(f"{path}: {section}.{key}: unknown key; known keys are {sorted(checks)}")
-        for key, check in checks.items():
+            what = "missing section" if values is None else "expected a mapping"
+            raise RecipeError(f"{path}: {section}: {what} (expected keys {sorted(required)})")
+        known = {**required, **optional}
+        for key in sorted(set(values) - set(known)):
+            raise RecipeError(f"{path}: {section}.{key}: unknown key; known keys are {sorted(known)}")
+        for key, check in known.items():
             if key not in values:
+                if key in optional:
+                    continue
                 raise RecipeError(f"{path}: {section}.{key}: missing")
             problem = check(values[key])
             if problem:

@@ -93,6 +93,8 @@ class Table:
     # Shelf boards above the top, as heights over it (empty for a plain table). Board k is
     # support id -(k + 2): -1 is the table top itself.
     levels_m: tuple[float, ...] = ()
+    # "table", or "floor": a room's floor that reaches beyond the view (no legs, no edges to ask about)
+    surface: str = "table"
 
 
 @dataclass(frozen=True)

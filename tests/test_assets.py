@@ -38,12 +38,13 @@ ADDED = (
     "pen_holder orange lemon bread cake donut toy_car ball rubber_duck stapler pencil glasses_case clock "
     "candle lamp laptop keyboard phone remote mouse scissors hammer screwdriver"
 )
-REQUIRED_CATEGORIES = set(ORIGINAL.split()) | set(ADDED.split())
-REQUIRED_GROUPS = set("kitchen dining office toys food tools electronics containers decor".split())
+FURNITURE = "coffee_table side_table stool chair cabinet"
+REQUIRED_CATEGORIES = set(ORIGINAL.split()) | set(ADDED.split()) | set(FURNITURE.split())
+REQUIRED_GROUPS = set("kitchen dining office toys food tools electronics containers decor furniture".split())
 REQUIRED_COLORS = set("red orange yellow green blue purple pink brown black white gray silver".split())
 REQUIRED_MATERIALS = set("matte glossy ceramic metal plastic wood paper organic".split())
 CONTAINERS = ("mug", "cup", "bowl", "jar", "pan", "pot", "basket", "tray", "plant_pot")  # open, with a cavity
-SUPPORTS = ("plate", "book", "box", "cutting_board", "tray", "toy_block")
+SUPPORTS = ("plate", "book", "box", "cutting_board", "tray", "toy_block", "coffee_table", "side_table", "stool", "cabinet")
 BODY_CENTRED = ("mug", "teapot", "pan", "lamp")  # a handle, spout or arm sticks out: the body sits on the axis
 MM = 1e-3
 
@@ -221,6 +222,11 @@ EXTENTS: dict[str, Callable[[dict], tuple]] = {
     "scissors": lambda p: (p["length_m"], None, None),
     "hammer": lambda p: (p["length_m"], None, None),
     "screwdriver": lambda p: (p["length_m"], None, None),
+    "coffee_table": lambda p: (p["length_m"], p["width_m"], p["height_m"]),
+    "side_table": lambda p: (2 * p["radius_m"], 2 * p["radius_m"], p["height_m"]),
+    "stool": lambda p: (2 * p["radius_m"], 2 * p["radius_m"], p["height_m"]),
+    "chair": lambda p: (p["seat_depth_m"], p["seat_width_m"], p["seat_height_m"] + p["back_m"]),
+    "cabinet": lambda p: (None, p["width_m"] + 0.02, p["height_m"]),
 }
 # (lowest, highest) ratio of each extent to a characteristic parameter, where no one parameter fixes it
 RATIOS: dict[str, tuple[str, tuple[tuple[float, float] | None, ...]]] = {
@@ -320,6 +326,8 @@ FRONT_CHECKS: dict[str, Callable[[np.ndarray, dict, np.ndarray], bool]] = {
     "keyboard": lambda v, p, s: _end(v, 0, 0.05, False)[:, 2].max() > _end(v, 0, 0.05, True)[:, 2].max() + 2 * MM,
     "toy_car": lambda v, p, s: v[v[:, 2] > 0.95 * s[2]][:, 0].mean() < -0.05 * p["length_m"],  # cabin set back
     "rubber_duck": lambda v, p, s: 0.5 * s[2] < v[v[:, 0].argmax(), 2] < 0.8 * s[2],  # the beak is the front tip
+    "chair": lambda v, p, s: v[v[:, 2] > p["seat_height_m"] + 0.05][:, 0].max() < -0.3 * p["seat_depth_m"],  # back at -x
+    "cabinet": lambda v, p, s: v[:, 0].max() > p["depth_m"] / 2 + 0.015,  # handles stand out of the doors
 }
 
 
@@ -675,7 +683,7 @@ def test_every_mesh_compiles_and_rests_in_mujoco(built: dict) -> None:
     """One body per category: visual + collision meshes compile, and each object dropped
     in its resting pose stays upright on a plane (the pose as built is stable)."""
     assets = [built[c, SEEDS[0]] for c in CATEGORIES]
-    spec, grid = _world(0.6, len(assets))
+    spec, grid = _world(1.3, len(assets))  # furniture is up to 1.2 m long
     for i, (asset, (x, y)) in enumerate(zip(assets, grid)):
         _add_asset(spec, f"obj{i}", asset, (x, y, 0.001))
     model, data = _run(spec, 0.8)
@@ -697,7 +705,7 @@ def test_containers_hold_and_supports_carry_what_is_put_on_them(built: dict) -> 
     """A ball dropped into each container's cavity ends on the cavity floor, inside the cavity
     (the collision parts keep it open); a cube dropped on each support rests on top of it."""
     cases = [(c, "ball") for c in CONTAINERS] + [(c, "cube") for c in SUPPORTS if c not in CONTAINERS]
-    spec, grid = _world(0.7, len(cases))
+    spec, grid = _world(1.3, len(cases))
     expected = []
     for i, ((category, probe), (x, y)) in enumerate(zip(cases, grid)):
         asset = built[category, SEEDS[0]]

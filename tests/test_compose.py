@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from matplotlib.path import Path
 
 from refspatial.compose import SceneRejected, boxes_overlap, compose, footprint_corners
 
@@ -98,3 +99,50 @@ def test_shelf_recipe_spreads_objects_over_its_boards(catalogue):
             if level + 1 < len(heights):  # fits under the board above it
                 assert z + o.asset.size_m[2] < heights[level + 1] - BOARD_M
     assert levels_used == {0, 1, 2}
+
+
+def test_room_puts_furniture_on_the_floor_first_and_objects_on_their_tops(catalogue):
+    """Furniture takes the first ids and stands on the floor; objects go on the floor, on small
+    hosts, or inside a furniture top's outline, at the top's height."""
+    from refspatial.compose import top_outline
+    from refspatial.recipe import load_recipe
+
+    room = load_recipe("room")
+    drop = room["objects"]["drop_height_m"]
+    furniture_groups = {k for k, c in catalogue.categories.items() if c.group == "furniture"}
+    on_tops = 0
+    for seed in range(6):
+        scene = compose(room, catalogue, seed)
+        assert scene.table.surface == "floor" and scene.table.top_z_m == 0.0
+        kinds = [o.asset.category in furniture_groups for o in scene.objects]
+        n = kinds.index(False)
+        lo, hi = room.option("furniture", "count")
+        assert lo <= n <= hi and not any(kinds[n:])  # furniture first, and only there
+        for piece in scene.objects[:n]:
+            assert abs(piece.pose.pos_world_m[2] - drop) < 1e-9
+        for o in scene.objects[n:]:
+            for piece in (p for p in scene.objects[:n] if p.asset.support):
+                T = piece.pose.matrix()
+                local = np.linalg.solve(T, [*o.pose.pos_world_m, 1.0])[:3]
+                top = float(piece.asset.size_m[2])
+                if abs(local[2] - top - drop) > 1e-6:
+                    continue
+                outline = top_outline(piece.asset)
+                assert Path(outline).contains_point(local[:2]), (seed, o.asset.category, piece.asset.category)
+                on_tops += 1
+    assert on_tops >= 5
+
+
+def test_all_means_no_furniture_and_furniture_is_refused_among_objects(catalogue, tmp_path):
+    from refspatial.compose import category_pool
+    from refspatial.recipe import load_recipe
+
+    tabletop = load_recipe("tabletop")
+    pool = category_pool(tabletop, catalogue)
+    assert "chair" not in pool and "mug" in pool
+    assert set(category_pool(tabletop, catalogue, "furniture")) == {
+        "coffee_table", "side_table", "stool", "chair", "cabinet"}
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("extends: tabletop\nname: bad\nobjects: {categories: [mug, chair]}\n")
+    with pytest.raises(ValueError, match="'chair' is not a non-furniture category"):
+        category_pool(load_recipe(str(bad)), catalogue)

@@ -131,7 +131,7 @@ def test_a_different_run_into_the_same_folder_is_refused(tiny, catalogue, tmp_pa
         generate(out, tiny, catalogue, n_scenes=1, base_seed=2, workers=1, scenes_per_shard=2)
 
 
-@pytest.mark.parametrize("family", ["tabletop", "kitchen_counter", "shelf"])
+@pytest.mark.parametrize("family", ["tabletop", "kitchen_counter", "shelf", "room"])
 def test_every_scene_family_generates_and_verifies(family, catalogue, tmp_path):
     from refspatial.recipe import load_recipe
 

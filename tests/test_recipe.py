@@ -44,6 +44,11 @@ def test_hash_ignores_formatting(tmp_path):
         ("extends: tabletop\nname: [x\n", "not valid YAML"),
         ("- just\n- a list\n", "expected a mapping"),
         ("extends: nowhere\nname: x\n", "unknown recipe 'nowhere'"),
+        ("extends: tabletop\nname: x\ntable: {surface: lawn}\n", "table.surface: expected one of"),
+        ("extends: tabletop\nname: x\nfurniture: {count: [2, 1]}\n", "furniture.count"),
+        ("extends: tabletop\nname: x\nfurniture: {legs: 4}\n", "furniture.legs: unknown key"),
+        ("extends: tabletop\nname: x\nfurniture: 3\n", "furniture: expected a mapping"),
+        ("extends: tabletop\nname: x\nobjects: {on_furniture: 2}\n", "objects.on_furniture"),
     ],
 )
 def test_bad_recipes_name_the_key_to_fix(tmp_path, text, message):
@@ -70,3 +75,15 @@ def test_resolved_yaml_loads_alone_to_the_same_hash(tiny, tmp_path):
     alone.write_text(tiny.resolved_yaml)
     again = load_recipe(str(alone))
     assert "extends" not in tiny.resolved_yaml and again.hash == tiny.hash and again.data == tiny.data
+
+
+def test_optional_keys_default_without_entering_the_hash(tmp_path):
+    """Leaving an optional key out keeps the recipe's hash (and so its scenes) as it was before
+    the key existed; option() still answers with the default."""
+    plain = load_recipe("tabletop")
+    assert "furniture" not in plain.data and "surface" not in plain["table"]
+    assert plain.option("table", "surface") == "table" and plain.option("furniture", "count") == [0, 0]
+    room = load_recipe("room")
+    assert room.option("table", "surface") == "floor" and room.option("furniture", "count")[1] > 0
+    explicit = load_recipe(write(tmp_path, "extends: tabletop\nname: tabletop\ntable: {surface: table}\n"))
+    assert explicit.option("table", "surface") == "table" and explicit.hash != plain.hash

@@ -56,9 +56,10 @@ shift = st.integers(-16, 16).map(lambda k: k / 8)
 @given(dyadic, dyadic, dyadic, dyadic, shift, shift)
 @settings(max_examples=100, deadline=None)
 def test_translating_scene_and_camera_together_changes_nothing(x1, y1, x2, y2, dx, dy):
-    v1 = view(obj(0, "mug", "red", x1, y1), obj(1, "cup", "blue", x2, y2), obj(2, "bowl", "red", 0.1, 0.2))
-    shifted = [obj(0, "mug", "red", x1 + dx, y1 + dy), obj(1, "cup", "blue", x2 + dx, y2 + dy),
-               obj(2, "bowl", "red", 0.1 + dx, 0.2 + dy)]
+    s = 5 / 64  # a dyadic size too: footprint corners, and angles on a threshold (45 deg), stay exact
+    v1 = view(obj(0, "mug", "red", x1, y1, s), obj(1, "cup", "blue", x2, y2, s), obj(2, "bowl", "red", 0.125, 0.25, s))
+    shifted = [obj(0, "mug", "red", x1 + dx, y1 + dy, s), obj(1, "cup", "blue", x2 + dx, y2 + dy, s),
+               obj(2, "bowl", "red", 0.125 + dx, 0.25 + dy, s)]
     # The camera moves with the scene: camera-relative facts (depth, image centroid) stay those of v1.
     shifted = [type(o)(**{**o.__dict__, "depth_m": p.depth_m, "centroid_px": p.centroid_px, "support": None})
                for o, p in zip(shifted, v1.objects)]
@@ -161,3 +162,12 @@ def test_supports_include_shelf_boards():
     assert [o.support for o in out] == [TABLE, -2, None]
     v = view(low, high)
     assert PREDICATES["above"](v, high, low) is False  # higher, but the footprints do not meet
+
+
+def test_edges_and_corners_are_not_asked_on_a_room_floor():
+    """A room's floor reaches past the view: the near-a-corner bottle is undecided there."""
+    from dataclasses import replace
+
+    floor = replace(SCENE, table_surface="floor", cache={})
+    assert PREDICATES["at_corner"](SCENE, BOTTLE) is True
+    assert PREDICATES["at_corner"](floor, BOTTLE) is None and PREDICATES["at_edge"](floor, BOTTLE) is None

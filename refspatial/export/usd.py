@@ -181,7 +181,8 @@ def _table(stage: Usd.Stage, scene: Scene) -> None:
     top = _box(half) + [0, 0, t.top_z_m - half[2]]
     _mesh(stage, "/World/Table/top", top, _BOX_FACES, t.rgba, material)
     leg_h = (t.top_z_m - TABLE_THICKNESS_M) / 2
-    for k, (sx, sy) in enumerate([(-1, -1), (-1, 1), (1, -1), (1, 1)]):
+    corners = [(-1, -1), (-1, 1), (1, -1), (1, 1)] if t.surface == "table" else []  # a floor has no legs
+    for k, (sx, sy) in enumerate(corners):
         centre = [sx * (half[0] - 0.05), sy * (half[1] - 0.05), leg_h]
         _mesh(stage, f"/World/Table/leg{k}", _box(np.array([0.025, 0.025, leg_h])) + centre, _BOX_FACES,
               t.rgba, material)

@@ -85,6 +85,7 @@ class ViewFacts:
     table_top_z_m: float = 0.0
     table_levels_m: tuple[float, ...] = ()  # shelf boards above the top; board k is support -(k + 2)
     contacts: frozenset[tuple[int, int]] = frozenset()  # object pairs touching, smaller id first, -1 = table
+    table_surface: str = "table"  # or "floor": a room's floor, whose edges are out of the picture
     # Memo of derived values (predicate verdicts, descriptions): question search asks the same things often.
     cache: dict = field(default_factory=dict, repr=False)
 
@@ -110,7 +111,7 @@ def view_facts(scene: Scene, view: View) -> ViewFacts:
                              np.array(scene.table.size_m))
     return ViewFacts(tuple(objects), right, forward, view.seg, view.depth_m, view.K, view.T_world_cam,
                      tuple(scene.table.size_m), scene.table.top_z_m, tuple(scene.table.levels_m),
-                     frozenset(scene.contacts))
+                     frozenset(scene.contacts), table_surface=scene.table.surface)
 
 
 def surfaces(top_z: float, levels: tuple[float, ...]) -> dict[int, float]:

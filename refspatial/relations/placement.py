@@ -58,8 +58,10 @@ def on_back_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 
 def _edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
-    """Distances (x, y) from A's footprint to the nearest table edges, for objects standing on the table."""
-    if a.support != TABLE or not v.table_size_m[0]:
+    """Distances (x, y) from A's footprint to the nearest table edges, for objects standing on the table.
+
+    None on a room's floor: its edges are not the room's walls and are out of the picture."""
+    if a.support != TABLE or not v.table_size_m[0] or v.table_surface == "floor":
         return None
     half = np.asarray(v.table_size_m) / 2
     corners = a.footprint_world

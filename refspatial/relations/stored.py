@@ -63,7 +63,7 @@ def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.n
     table = scene["table"]
     levels = tuple(table.get("levels_m", ()))
     return ViewFacts(objects, right, forward, seg, depth_m, K, T, tuple(table["size_m"]), table["top_z_m"],
-                     levels, contacts)
+                     levels, contacts, table_surface=table.get("surface", "table"))
 
 
 def _object_facts(o: dict, seg: np.ndarray, depth_m: np.ndarray, right, forward) -> ObjectFacts:

@@ -10,7 +10,7 @@ things; importing this package registers them all.
 from __future__ import annotations
 
 # importing the modules registers their builders
-from . import containers, electronics, food, kitchen, office, tableware, tools, toys  # noqa: F401
+from . import containers, electronics, food, furniture, kitchen, office, tableware, tools, toys  # noqa: F401
 from .registry import BUILDER_LIMITS, BUILDER_PARAMS, BUILDERS, Builder, Built, register
 
 __all__ = ["BUILDERS", "BUILDER_LIMITS", "BUILDER_PARAMS", "Builder", "Built", "register"]
