@@ -46,7 +46,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
     s = sub.add_parser("stats", help="print counts of scenes, records, QA, predicates, steps and categories")
-    s.add_argument("dir", type=Path)
+    s.add_argument("dir", type=Path, nargs="+",
+                   help="dataset folder; several folders (one per scene family, say) are counted as one")
     s.add_argument("--json", action="store_true", help="print JSON instead of text")
     s.add_argument("--report", type=Path, metavar="HTML",
                    help="also write a self-contained HTML audit report (plots, balance warnings) to this .html path")
@@ -141,12 +142,14 @@ def _stats(args: argparse.Namespace) -> int:
 
     if args.report is not None and args.report.suffix != ".html":
         raise FileNotFoundError(f"--report {args.report}: expected a path ending in .html")
-    stats = collect(args.dir)
+    stats = collect(*args.dir)
     print(json.dumps(stats, indent=1) if args.json else format_text(stats))
     if args.report:
         from .report import write_report
+        from .stats import merge_manifests
 
-        print(f"wrote {write_report(stats, load_manifest(args.dir), args.report)}", file=sys.stderr)
+        manifest = merge_manifests([load_manifest(d) for d in args.dir])
+        print(f"wrote {write_report(stats, manifest, args.report)}", file=sys.stderr)
     return 0
 
 

@@ -61,7 +61,8 @@ def render_html(stats: dict, manifest: dict) -> str:
 def _summary(stats: dict, manifest: dict) -> str:
     gen = manifest.get("generator", {})
     packages = ", ".join(f"{k} {v}" for k, v in sorted(gen.get("packages", {}).items()))
-    rows = [("recipe", f"{stats['recipe']} (hash {manifest.get('recipe_hash', '')[:12]})"),
+    digest = manifest.get("recipe_hash", "")
+    rows = [("recipe", f"{stats['recipe']} (hash {digest if '+' in digest else digest[:12]})"),
             ("base seed", manifest.get("base_seed")),
             ("scenes / records / QA", f"{stats['scenes']} / {stats['records']} / {stats['qa']} "
                                       f"({stats['qa_per_record']} QA per record)"),

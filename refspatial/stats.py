@@ -118,12 +118,24 @@ def answer_label(qa: dict) -> str:
     return f"{qa['answer']} {m.group(1)}" if m else qa["answer"]
 
 
-def collect(root: Path) -> dict:
-    manifest = load_manifest(root)
+def collect(*roots: Path) -> dict:
+    """Statistics over one dataset folder, or over several (one per scene family) as one."""
+    manifests = [load_manifest(root) for root in roots]
     tally = _Tally()
-    for shard in manifest["shards"]:
-        for sample in ShardReader(Path(root) / shard["file"]).iter(fields=()):
-            tally.add_record(sample)
+    for root, manifest in zip(roots, manifests):
+        for shard in manifest["shards"]:
+            for sample in ShardReader(Path(root) / shard["file"]).iter(fields=()):
+                tally.add_record(sample)
+    manifest = merge_manifests(manifests)
+    by_recipe: dict[str, dict] = {}
+    for m in manifests:
+        for recipe, row in rejections_by_recipe(m).items():
+            if recipe in by_recipe:  # two folders of one recipe: add them up
+                old = by_recipe[recipe]
+                row = {"scenes": old["scenes"] + row["scenes"], "count": old["count"] + row["count"],
+                       "reasons": dict(Counter(old["reasons"]) + Counter(row["reasons"]))}
+                row["rate"] = round(row["count"] / row["scenes"], 4) if row["scenes"] else 0.0
+            by_recipe[recipe] = row
     stats = {
         "recipe": manifest["recipe"],
         "scenes": manifest["scenes"],
@@ -131,7 +143,7 @@ def collect(root: Path) -> dict:
         "qa": manifest["qa"],
         "shards": len(manifest["shards"]),
         "rejected": {k: manifest["rejected"][k] for k in ("count", "rate", "reasons")},
-        "rejected_by_recipe": rejections_by_recipe(manifest),
+        "rejected_by_recipe": by_recipe,
         "qa_per_record": round(manifest["qa"] / manifest["records"], 2) if manifest["records"] else 0.0,
         **{name: _sorted(counter) for name, counter in tally.c.items()},
         "answers_by_kind": {k: _sorted(v) for k, v in sorted(tally.answers_by_kind.items())},
@@ -143,6 +155,25 @@ def collect(root: Path) -> dict:
     stats["balance"] = balance_checks(stats)
     stats["warnings"] = [b["message"] for b in stats["balance"] if b["verdict"] == "warn"]
     return stats
+
+
+def merge_manifests(manifests: list[dict]) -> dict:
+    """One manifest-shaped summary of several datasets: counts added, recipes joined with '+'."""
+    if len(manifests) == 1:
+        return manifests[0]
+    scenes = sum(m["scenes"] for m in manifests)
+    rejected = sum(m["rejected"]["count"] for m in manifests)
+    reasons = sum((Counter(m["rejected"]["reasons"]) for m in manifests), Counter())
+    return {
+        **manifests[0],
+        "recipe": " + ".join(m["recipe"] for m in manifests),
+        "recipe_hash": " + ".join(m.get("recipe_hash", "")[:12] for m in manifests),
+        "base_seed": ", ".join(str(m.get("base_seed")) for m in manifests),
+        "scenes": scenes, "records": sum(m["records"] for m in manifests), "qa": sum(m["qa"] for m in manifests),
+        "shards": [s for m in manifests for s in m["shards"]],
+        "rejected": {"count": rejected, "rate": round(rejected / scenes, 4) if scenes else 0.0,
+                     "reasons": dict(sorted(reasons.items()))},
+    }
 
 
 def rejections_by_recipe(manifest: dict) -> dict[str, dict]:

@@ -77,6 +77,26 @@ def test_generate_and_stats_from_the_command_line(tmp_path, capsys):
     assert "QA per predicate" in text and "objects per category" in text
 
 
+def test_stats_over_several_folders_adds_them_up(tmp_path, capsys):
+    """One audit over several datasets (one per scene family): counts add, rejections stay per recipe."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    for out, seed in ((a, "1"), (b, "2")):
+        assert main(["generate", "--scenes", "1", "--recipe", str(TINY), "--out", str(out), "--seed", seed,
+                     "--workers", "1", "--quiet"]) == 0
+    capsys.readouterr()
+    single = []
+    for out in (a, b):
+        assert main(["stats", str(out), "--json"]) == 0
+        single.append(json.loads(capsys.readouterr().out))
+    assert main(["stats", str(a), str(b), "--json", "--report", str(tmp_path / "both.html")]) == 0
+    both = json.loads(capsys.readouterr().out)
+    for key in ("scenes", "records", "qa", "shards"):
+        assert both[key] == single[0][key] + single[1][key], key
+    assert sum(both["categories"].values()) == sum(sum(s["categories"].values()) for s in single)
+    assert both["rejected_by_recipe"]["tiny"]["scenes"] == 2
+    assert "tiny + tiny" in (tmp_path / "both.html").read_text()
+
+
 def test_stats_of_a_folder_without_manifest(tmp_path, capsys):
     assert main(["stats", str(tmp_path)]) == 2
     assert "manifest.json not found" in capsys.readouterr().err
