@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 from ..relations import PREDICATES, ViewFacts
+from ..relations.masks import box_of, cached_boxes, padded
 from .phrases import Phrasebook
 from .program import Node, ProgramError, count_steps, execute, with_results
 from .refer import compile_ref, simple_refs
@@ -66,21 +67,26 @@ def erosion_px(view: ViewFacts) -> int:
     return max(1, round(min(view.width, view.height) / 180))
 
 
-def sample_mask_points(mask: np.ndarray, n: int, rng: np.random.Generator, erode: int) -> list[list[float]] | None:
+def sample_mask_points(mask: np.ndarray, n: int, rng: np.random.Generator, erode: int,
+                       origin: tuple[int, int] = (0, 0), frame: tuple[int, int] | None = None) -> list[list[float]] | None:
     """n normalised (x, y) points on a mask, eroded first; each rounded point is checked on the mask.
 
-    A point (x, y) stands for pixel column floor(x * W), row floor(y * H).
+    A point (x, y) stands for pixel column floor(x * W), row floor(y * H). ``mask`` may be a
+    window of a frame of shape ``frame`` whose top-left pixel is ``origin`` (row, col).
     """
-    h, w = mask.shape
+    h, w = frame or mask.shape
+    r0, c0 = origin
     m = mask.astype(np.uint8)
     rows, cols = np.nonzero(cv2.erode(m, np.ones((3, 3), np.uint8), iterations=erode))
     if len(rows) == 0:
         return None
+    rows, cols = rows + r0, cols + c0
     points: list[list[float]] = []
     for _ in range(n * POINT_TRIES):
         k = int(rng.integers(len(rows)))
         x, y = round((cols[k] + 0.5) / w, 3), round((rows[k] + 0.5) / h, 3)
-        if m[min(int(y * h), h - 1), min(int(x * w), w - 1)]:
+        r, c = min(int(y * h), h - 1) - r0, min(int(x * w), w - 1) - c0
+        if 0 <= r < m.shape[0] and 0 <= c < m.shape[1] and m[r, c]:
             points.append([x, y])
             if len(points) == n:
                 return points
@@ -89,7 +95,14 @@ def sample_mask_points(mask: np.ndarray, n: int, rng: np.random.Generator, erode
 
 def sample_points(view: ViewFacts, object_id: int, n: int, rng: np.random.Generator) -> list[list[float]] | None:
     """n points on the object's eroded visible mask."""
-    return sample_mask_points(view.seg == object_id, n, rng, erosion_px(view))
+    erode = erosion_px(view)
+    box = box_of(cached_boxes(view), object_id)
+    if box is None:
+        return None
+    # Erode and draw within the object's box grown past the erosion's reach: same pixels, same order.
+    window = padded(box, erode + 1, view.seg.shape)
+    return sample_mask_points(view.seg[window] == object_id, n, rng, erode,
+                              origin=(window[0].start, window[1].start), frame=view.seg.shape)
 
 
 def format_points(points: list[list[float]]) -> str:

@@ -185,9 +185,13 @@ class _Part:
     """A relation part with what it does to one head's candidates (precomputed for fast search)."""
 
     rel: Relation
-    anchors: frozenset
-    kept: frozenset  # candidates it keeps
-    undecided: frozenset  # candidates it cannot decide
+    # Bits of the anchors' ids, and above them one bit for the predicate: two parts may be
+    # combined only if their tags share no bit (distinct anchors, distinct predicates).
+    tag: int
+    # Candidate sets as bit masks (bit i: object i): the search tests ~10^4 combinations per
+    # description, and integer AND is several times faster than frozenset intersection.
+    kept: int  # candidates it keeps
+    undecided: int  # candidates it cannot decide
 
 
 def _parts(view: ViewFacts, target: ObjectFacts, phrased: set[str]) -> dict[str, list[Relation]]:
@@ -209,14 +213,16 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, category: str | None, co
     key = ("scored", target.object_id, category, color)
     if key not in view.cache:
         head, sets = _kept_sets(view, category, color, parts)
-        scored = {kind: [_Part(r, frozenset(a.object_id for a in r.anchors), *sets[r])
-                         for r in rels if r in sets and target.object_id in sets[r][0]]
+        bit = 1 << target.object_id
+        predicate_bit = {name: 1 << (len(view.objects) + k) for k, name in enumerate(sorted(PREDICATES))}
+        scored = {kind: [_Part(r, sum(1 << a.object_id for a in r.anchors) | predicate_bit[r.predicate], *sets[r])
+                         for r in rels if r in sets and sets[r][0] & bit]
                   for kind, rels in parts.items()}
         view.cache[key] = (head, scored)
     return view.cache[key]
 
 
-def _fitting_combinations(target: int, head: frozenset, scored, shapes, rng) -> list[tuple[_Part, ...]]:
+def _fitting_combinations(target: int, head: int, scored, shapes, rng) -> list[tuple[_Part, ...]]:
     """Every combination of parts with a wanted shape that, by the candidate sets, picks only the
     target with no idle part (checking at most COMBOS_CHECKED per shape, in random order)."""
     found = []
@@ -225,7 +231,7 @@ def _fitting_combinations(target: int, head: frozenset, scored, shapes, rng) -> 
         for combo in islice(product(*lists), COMBOS_CHECKED):
             if len(combo) > 1 and not _independent(combo):
                 continue
-            if _picks_only(target, head, [(p.kept, p.undecided) for p in combo]):
+            if _picks_only(1 << target, head, [(p.kept, p.undecided) for p in combo]):
                 found.append(combo)
                 if len(found) >= COMBOS_WANTED:
                     return found
@@ -234,54 +240,58 @@ def _fitting_combinations(target: int, head: frozenset, scored, shapes, rng) -> 
 
 def _independent(combo: tuple[_Part, ...]) -> bool:
     """Distinct anchors and distinct predicates across the parts."""
-    anchors: set = set()
-    names: set = set()
+    seen = 0
     for p in combo:
-        if anchors & p.anchors or p.rel.predicate in names:
+        if seen & p.tag:
             return False
-        anchors |= p.anchors
-        names.add(p.rel.predicate)
+        seen |= p.tag
     return True
 
 
 def _kept_sets(view: ViewFacts, category: str | None, color: str | None, parts):
     """The head's candidates, and for each part (kept, undecided): the candidates it keeps, and
-    those it cannot decide (a program fails if one of those is still a candidate when it runs)."""
+    those it cannot decide (a program fails if one of those is still a candidate when it runs).
+    All three are bit masks over object ids."""
     ids = [o.object_id for o in view.objects if o.status != "hidden"
            and category in (None, o.category) and color in (None, o.color)]
     if any(view.objects[i].status != "visible" for i in ids):
-        return frozenset(), {}
+        return 0, {}
     out = {}
     for rel in (r for group in parts.values() for r in group):
         anchors = [a.object_id for a in rel.anchors]
-        kept, undecided = set(), set()
+        kept = undecided = 0
         for i in ids:
             if i in anchors:
                 continue
             args = [*anchors, i] if rel.reverse else [i, *anchors]
             verdict = PREDICATES[rel.predicate](view, *(view.objects[k] for k in args))
             if verdict is None:
-                undecided.add(i)
+                undecided |= 1 << i
             elif verdict:
-                kept.add(i)
-        out[rel] = (frozenset(kept), frozenset(undecided))
-    return frozenset(ids), out
+                kept |= 1 << i
+        out[rel] = (kept, undecided)
+    return sum(1 << i for i in ids), out
 
 
-def _picks_only(target: int, head: frozenset, parts: list[tuple[frozenset, frozenset] | None]) -> bool:
+def _picks_only(target: int, head: int, parts: list[tuple[int, int]]) -> bool:
     """Run in order, the parts decide every remaining candidate, keep only the target, and none of
-    them is idle (dropping any one leaves more than the target)."""
-    if any(p is None for p in parts):
-        return False
+    them is idle (dropping any one leaves more than the target). Sets are bit masks; ``target``
+    is the target's bit."""
     remaining = head
     for kept, undecided in parts:
         if remaining & undecided:
             return False
-        remaining = remaining & kept
-    if remaining != {target}:
+        remaining &= kept
+    if remaining != target:
         return False
-    sets = [kept for kept, _ in parts]
-    return all(head.intersection(*(sets[:k] + sets[k + 1:])) != {target} for k in range(len(sets)))
+    for k in range(len(parts)):
+        others = head
+        for j, (kept, _) in enumerate(parts):
+            if j != k:
+                others &= kept
+        if others == target:
+            return False
+    return True
 
 
 def _holds(view: ViewFacts, name: str, objs: list[ObjectFacts]) -> bool:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
+from ..relations.masks import cached_boxes, object_pixels
 from .common import QA, make_qa
 from .location import described_target
 from .phrases import Phrasebook
@@ -50,7 +51,7 @@ def visual_choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.r
 
 
 def _box(view: ViewFacts, object_id: int) -> list[int]:
-    rows, cols = np.nonzero(view.seg == object_id)
+    rows, cols, _ = object_pixels(view.seg, cached_boxes(view), object_id)
     pad = max(1, round(min(view.width, view.height) / 180))
     return [max(0, int(cols.min()) - pad), max(0, int(rows.min()) - pad),
             min(view.width - 1, int(cols.max()) + pad), min(view.height - 1, int(rows.max()) + pad)]

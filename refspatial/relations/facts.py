@@ -19,6 +19,7 @@ import numpy as np
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
 from .geometry import overlap_share, project
+from .masks import object_boxes, object_pixels
 
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
 MIN_VISIBLE_PX = 20
@@ -106,7 +107,8 @@ def view_facts(scene: Scene, view: View) -> ViewFacts:
     right, forward = _horizontal(R[:, 0]), _horizontal(R[:, 2])
     counts = np.bincount(view.seg.ravel() + 1, minlength=len(scene.objects) + 1)[1:]
     min_px = max(MIN_VISIBLE_PX, VISIBLE_SHARE_OF_IMAGE * view.seg.size)
-    objects = [_object_facts(o, view, right, forward, int(counts[o.object_id]), min_px) for o in scene.objects]
+    boxes = object_boxes(view.seg)
+    objects = [_object_facts(o, view, right, forward, int(counts[o.object_id]), min_px, boxes) for o in scene.objects]
     objects = _with_supports(objects, surfaces(scene.table.top_z_m, scene.table.levels_m),
                              np.array(scene.table.size_m))
     return ViewFacts(tuple(objects), right, forward, view.seg, view.depth_m, view.K, view.T_world_cam,
@@ -119,17 +121,16 @@ def surfaces(top_z: float, levels: tuple[float, ...]) -> dict[int, float]:
     return {TABLE: top_z, **{-(k + 2): top_z + h for k, h in enumerate(levels)}}
 
 
-def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px: float) -> ObjectFacts:
+def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px: float, boxes) -> ObjectFacts:
     T = obj.pose.matrix()
     asset = obj.asset
     verts = asset.visual.vertices_m @ T[:3, :3].T + T[:3, 3]
     aabb = np.stack([verts.min(0), verts.max(0)])
     centre = aabb.mean(0)
-    mask = view.seg == obj.object_id
-    depth = float(np.median(view.depth_m[mask])) if px else float("inf")
+    rows, cols, _ = object_pixels(view.seg, boxes, obj.object_id)
+    depth = float(np.median(view.depth_m[rows, cols])) if px else float("inf")
     share = min(1.0, px / max(_silhouette_px(verts, asset.visual.faces, view), 1))
     status = "visible" if px >= min_px and share >= MIN_VISIBLE_SHARE else ("marginal" if px else "hidden")
-    rows, cols = np.nonzero(mask)
     return ObjectFacts(
         obj.object_id, asset.category, asset.name, asset.color, aabb, float(centre @ right),
         float(centre @ forward), depth, px, status,
@@ -158,8 +159,15 @@ def _silhouette_px(verts_world: np.ndarray, faces: np.ndarray, view: View) -> in
     uv, z = project(verts_world, view.K, view.T_world_cam)
     if np.any(z <= 0.01):
         return int(view.seg.size)  # crosses the camera plane: cannot be occluded meaningfully
-    canvas = np.zeros(view.seg.shape, dtype=np.uint8)
-    tris = np.round(uv[faces] * 4).astype(np.int32)  # 2 fractional bits for sub-pixel accuracy
+    # Draw on a canvas just covering the silhouette's box within the image (a whole frame per
+    # object cost more than every predicate together); the count is the same.
+    h, w = view.seg.shape
+    c0, r0 = np.clip(np.floor(uv.min(0)).astype(int) - 1, 0, [w, h])
+    c1, r1 = np.clip(np.ceil(uv.max(0)).astype(int) + 2, 0, [w, h])
+    if c1 <= c0 or r1 <= r0:
+        return 0
+    canvas = np.zeros((r1 - r0, c1 - c0), dtype=np.uint8)
+    tris = np.round((uv[faces] - [c0, r0]) * 4).astype(np.int32)  # 2 fractional bits for sub-pixel accuracy
     cv2.fillPoly(canvas, list(tris), 1, lineType=cv2.LINE_8, shift=2)
     return int(canvas.sum())
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..scene import Cavity, PlacedObject, quat_to_matrix
 from .facts import ObjectFacts, ViewFacts, _horizontal
+from .masks import object_boxes, object_pixels
 
 DIGITS = 6  # micrometres and micro-units: far below every threshold
 
@@ -58,7 +59,8 @@ def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.n
     """The view facts of a record, from its scene JSON and its depth and segmentation arrays."""
     K, T = np.asarray(K, dtype=float), np.asarray(T_world_cam, dtype=float)
     right, forward = _horizontal(T[:3, 0]), _horizontal(T[:3, 2])
-    objects = tuple(_object_facts(o, seg, depth_m, right, forward) for o in scene["objects"])
+    boxes = object_boxes(seg)
+    objects = tuple(_object_facts(o, seg, depth_m, right, forward, boxes) for o in scene["objects"])
     contacts = frozenset(tuple(p) for p in scene.get("contacts", []))
     table = scene["table"]
     levels = tuple(table.get("levels_m", ()))
@@ -66,11 +68,10 @@ def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.n
                      levels, contacts, table_surface=table.get("surface", "table"))
 
 
-def _object_facts(o: dict, seg: np.ndarray, depth_m: np.ndarray, right, forward) -> ObjectFacts:
+def _object_facts(o: dict, seg: np.ndarray, depth_m: np.ndarray, right, forward, boxes) -> ObjectFacts:
     aabb = np.array(o["aabb_world_m"], dtype=float)
     centre = aabb.mean(0)
-    mask = seg == o["id"]
-    rows, cols = np.nonzero(mask)
+    rows, cols, _ = object_pixels(seg, boxes, o["id"])
     px = len(rows)
     pose = np.eye(4)
     pose[:3, :3] = quat_to_matrix(o["pose"]["quat_wxyz"])
@@ -78,7 +79,7 @@ def _object_facts(o: dict, seg: np.ndarray, depth_m: np.ndarray, right, forward)
     cav = o.get("cavity")
     return ObjectFacts(
         o["id"], o["category"], o["name"], o["color"], aabb, float(centre @ right), float(centre @ forward),
-        float(np.median(depth_m[mask])) if px else float("inf"), px, o["visibility"],
+        float(np.median(depth_m[rows, cols])) if px else float("inf"), px, o["visibility"],
         footprint_world=np.array(o["footprint_world_m"], dtype=float), front_world=np.array(o["front_world"]),
         front_side=o["front_side"], volume_m3=o["volume_m3"],
         centroid_px=(float(cols.mean() + 0.5), float(rows.mean() + 0.5)) if px else None,
