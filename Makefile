@@ -43,7 +43,7 @@ shards: venv
 	$(BIN)/refspatial stats data/tabletop
 
 bench: venv
-	$(BIN)/python benchmarks/bench.py
+	$(BIN)/python benchmarks/bench.py --scenes 12 --workers $(WORKERS)  # 1 process, then all cores
 
 # The contact sheet of every asset category (docs/assets.png).
 assets-sheet: venv

@@ -20,6 +20,7 @@ import resource
 import sys
 import tempfile
 import time
+import tracemalloc
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -27,7 +28,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import refspatial  # noqa: E402,F401
 from refspatial.assets import load_catalogue  # noqa: E402
 from refspatial.compose import SceneRejected  # noqa: E402
-from refspatial.pipeline import STAGES, build_scene  # noqa: E402
+from refspatial.pipeline import STAGES, build_scene, generate_scene  # noqa: E402
 from refspatial.recipe import load_recipe  # noqa: E402
 from refspatial.render import render_views  # noqa: E402
 from refspatial.seeding import scene_seed  # noqa: E402
@@ -40,6 +41,21 @@ def end_to_end(recipe, catalogue, n: int, out: Path) -> tuple[float, dict]:
     start = time.perf_counter()
     summary = run_shard(job)
     return time.perf_counter() - start, summary
+
+
+def stage_memory(recipe, catalogue, n: int) -> dict[str, int]:
+    """Peak bytes each stage allocates (Python and numpy, via tracemalloc) over n scenes. GL
+    buffers and MuJoCo's C allocations are outside tracemalloc's view: see the process RSS."""
+    peaks: dict[str, int] = {}
+    tracemalloc.start()
+    try:
+        for i in range(n):
+            outcome = generate_scene(recipe, catalogue, scene_seed(0, i))
+            for stage, b in outcome.peak_bytes.items():
+                peaks[stage] = max(peaks.get(stage, 0), b)
+    finally:
+        tracemalloc.stop()
+    return peaks
 
 
 def bare_render(recipe, catalogue, n: int) -> tuple[float, int]:
@@ -79,6 +95,9 @@ def main() -> None:
     for stage in (*STAGES, "write+other"):
         s = stages.get(stage, 0.0)
         print(f"  {stage:<12} {s:7.2f} s  {100 * s / e2e_s:5.1f} %  {1000 * s / max(records, 1):7.1f} ms/record")
+    peaks = stage_memory(recipe, catalogue, min(args.scenes, 4))
+    print("\npeak memory allocated per stage (tracemalloc, first 4 scenes; GL and MuJoCo C memory not included):")
+    print("  " + "   ".join(f"{stage} {peaks.get(stage, 0) / 2**20:.1f} MiB" for stage in STAGES))
     bare_s, views = bare_render(recipe, catalogue, args.scenes)
     print(f"\nbare MuJoCo render of the same {views} views (model compile, MjrContext, colour pass and "
           f"depth+segmentation pass, GL context reused, as in the pipeline): {bare_s:.2f} s, "

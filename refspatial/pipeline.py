@@ -8,6 +8,7 @@ scene was rejected, plus the time spent in each stage (for ``make bench``).
 from __future__ import annotations
 
 import time
+import tracemalloc
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Iterator
@@ -35,25 +36,35 @@ class SceneOutcome:
     rejected: str | None = None  # reason slug
     detail: str = ""
     seconds: dict[str, float] = field(default_factory=dict)
+    # Per stage, the most Python/numpy memory it held above what was held when it began; only
+    # while tracemalloc traces (make bench turns it on for a short run; it slows everything).
+    peak_bytes: dict[str, int] = field(default_factory=dict)
 
 
 @contextmanager
-def _timed(seconds: dict[str, float], stage: str) -> Iterator[None]:
+def _timed(seconds: dict[str, float], stage: str, peaks: dict[str, int] | None = None) -> Iterator[None]:
+    tracing = peaks is not None and tracemalloc.is_tracing()
+    if tracing:
+        tracemalloc.reset_peak()
+        held = tracemalloc.get_traced_memory()[0]
     start = time.perf_counter()
     try:
         yield
     finally:
         seconds[stage] = seconds.get(stage, 0.0) + time.perf_counter() - start
+        if tracing:
+            peaks[stage] = max(peaks.get(stage, 0), tracemalloc.get_traced_memory()[1] - held)
 
 
-def build_scene(recipe: Recipe, catalogue: Catalogue, seed: int, seconds: dict[str, float] | None = None) -> Scene:
+def build_scene(recipe: Recipe, catalogue: Catalogue, seed: int, seconds: dict[str, float] | None = None,
+                peaks: dict[str, int] | None = None) -> Scene:
     """The composed, settled scene with its cameras framed (raises SceneRejected)."""
     seconds = {} if seconds is None else seconds
-    with _timed(seconds, "compose"):
+    with _timed(seconds, "compose", peaks):
         scene = compose(recipe, catalogue, seed)
-    with _timed(seconds, "physics"):
+    with _timed(seconds, "physics", peaks):
         scene = settle(scene, catalogue.materials, recipe)
-    with _timed(seconds, "camera"):
+    with _timed(seconds, "camera", peaks):
         scene = frame_cameras(scene, recipe)
     return scene
 
@@ -61,20 +72,20 @@ def build_scene(recipe: Recipe, catalogue: Catalogue, seed: int, seconds: dict[s
 def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutcome:
     out = SceneOutcome(seed)
     try:
-        scene = build_scene(recipe, catalogue, seed, out.seconds)
+        scene = build_scene(recipe, catalogue, seed, out.seconds, out.peak_bytes)
     except SceneRejected as exc:
         out.rejected, out.detail = exc.reason, str(exc)
         return out
-    with _timed(out.seconds, "render"):
+    with _timed(out.seconds, "render", out.peak_bytes):
         views = render_views(scene, catalogue.materials)
-    with _timed(out.seconds, "relations"):
+    with _timed(out.seconds, "relations", out.peak_bytes):
         described = [scene_dict(scene, i, v, view_facts(scene, v)) for i, v in enumerate(views)]
         # Questions see the facts as stored, so re-executing a program on the record gives the same answer.
         facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam) for d, v in zip(described, views)]
         relations = [computed_relations(f) for f in facts]
     keys = [f"{scene.scene_id}/{v.camera.name}" for v in views]
     for i, view in enumerate(views):
-        with _timed(out.seconds, "questions"):
+        with _timed(out.seconds, "questions", out.peak_bytes):
             rng = stage_rng(recipe.hash, scene.seed, f"questions/{view.camera.name}")
             # Multi-view questions treat the previous view (cyclically) as image 1.
             other = (keys[i - 1], facts[i - 1]) if len(views) > 1 else None

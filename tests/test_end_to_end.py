@@ -144,3 +144,20 @@ def test_every_scene_family_generates_and_verifies(family, catalogue, tmp_path):
     assert manifest["records"] >= 2 and manifest["qa"] >= 12
     report = verify(out)
     assert report.failures == [] and report.qa == manifest["qa"]
+
+
+def test_stage_memory_is_measured_only_while_tracing(tiny, catalogue):
+    import tracemalloc
+
+    from refspatial.pipeline import STAGES, generate_scene
+
+    plain = generate_scene(tiny, catalogue, 5)
+    assert plain.rejected is None and plain.peak_bytes == {}
+    tracemalloc.start()
+    try:
+        traced = generate_scene(tiny, catalogue, 5)
+    finally:
+        tracemalloc.stop()
+    assert set(traced.peak_bytes) == set(STAGES)
+    assert traced.peak_bytes["render"] >= 3 * 192 * 108  # at least the RGB frames it returns
+    assert [r.qa for r in traced.records] == [r.qa for r in plain.records]  # tracing changes no output
