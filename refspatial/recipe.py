@@ -205,7 +205,8 @@ TOP_LEVEL = {"name", "description", "extends", *SCHEMA, *OPTIONAL}
 def resolve_path(name_or_path: str) -> Path:
     """A recipe given as a file path, or as the name of a file in recipes/."""
     p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml") or p.exists():
+    # A folder that happens to share a recipe's name (an --out folder called "tabletop") is not a recipe.
+    if p.suffix in (".yaml", ".yml") or p.is_file():
         if not p.is_file():
             raise RecipeError(f"recipe file {p} does not exist; pass an existing .yaml file or a recipe name")
         return p

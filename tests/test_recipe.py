@@ -87,3 +87,12 @@ def test_optional_keys_default_without_entering_the_hash(tmp_path):
     assert room.option("table", "surface") == "floor" and room.option("furniture", "count")[1] > 0
     explicit = load_recipe(write(tmp_path, "extends: tabletop\nname: tabletop\ntable: {surface: table}\n"))
     assert explicit.option("table", "surface") == "table" and explicit.hash != plain.hash
+
+
+def test_a_folder_named_like_a_recipe_does_not_hide_it(tmp_path, monkeypatch):
+    """`generate --out tabletop` then `--recipe kitchen_counter` (which extends tabletop) from the
+    same working directory must still find the shipped recipes."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "tabletop").mkdir()
+    (tmp_path / "kitchen_counter").mkdir()
+    assert load_recipe("kitchen_counter").name == "kitchen_counter"
