@@ -151,6 +151,9 @@ def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> np.ndarray:
             half, radius = _reach(a, direction_axis(v, c.direction))
             centre, r = a.center_world_m[:2], half + radius + (c.offset_m or 0.0)
             lo, hi = np.maximum(lo, centre - r), np.minimum(hi, centre + r)
+        elif c.kind == "between":  # within the hull of the anchors' footprints: a room's floor is metres wide
+            corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
+            lo, hi = np.maximum(lo, corners.min(0)), np.minimum(hi, corners.max(0))
     if np.any(hi <= lo):
         return np.zeros((0, 2))
     xs = np.arange(lo[0] + CELL_M / 2, hi[0], CELL_M)
