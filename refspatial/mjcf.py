@@ -24,7 +24,7 @@ COLLISION_GROUP = 3
 TABLE_THICKNESS_M = 0.03
 DENSITY_KG_M3 = 600.0  # household objects are mostly hollow; a mean keeps masses plausible
 FRICTION = (1.0, 0.01, 0.002)
-FLOOR_EXTENT_M = 5.0  # model extent for a room: the shadow map then spans the furniture, not just a table
+FLOOR_EXTENT_M = 3.0  # model extent for a room: the shadow map (centred on the objects) spans the furniture
 WALL_HEIGHT_M, WALL_THICKNESS_M = 2.6, 0.1
 WALL_RGBA = (0.86, 0.84, 0.80, 1.0)  # sliding, torsional, rolling: rolling friction stops apples drifting
 
@@ -146,11 +146,23 @@ def _add_room(spec: mujoco.MjSpec, scene: Scene) -> None:
             )
     light_dir = np.array(scene.light.dir_world)
     diffuse = (0.7 * scene.light.intensity * np.ones(3)).tolist()
+    # A directional light's shadow map is centred on its position: over the objects, not the
+    # origin, since a room's objects may stand metres from the floor's centre.
+    aim = np.array([*_objects_centre(scene), t.top_z_m]) if t.surface == "floor" else np.array([0, 0, t.top_z_m])
     world.add_light(
         name="sun", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, dir=light_dir.tolist(),
-        pos=(-2.0 * light_dir + [0, 0, t.top_z_m]).tolist(), diffuse=diffuse,
+        pos=(-2.0 * light_dir + aim).tolist(), diffuse=diffuse,
         specular=[0.2, 0.2, 0.2], ambient=[0.1, 0.1, 0.1], castshadow=True,
     )
+
+
+def _objects_centre(scene: Scene) -> tuple[float, float]:
+    """Middle of the objects' positions on the ground plane (the origin when there are none)."""
+    if not scene.objects:
+        return 0.0, 0.0
+    xy = np.array([o.pose.pos_world_m[:2] for o in scene.objects])
+    lo, hi = xy.min(0), xy.max(0)
+    return float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2)
 
 
 def _mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.ndarray, opts: SpecOptions) -> None:
