@@ -17,6 +17,7 @@ from scipy.spatial import ConvexHull
 
 from .assets import Catalogue, build_asset
 from .recipe import Recipe
+from .relations.geometry import inside_convex
 from .scene import BOARD_M, Asset, Light, PlacedObject, Pose, Scene, Table, yaw_quat
 from .seeding import stage_rng
 
@@ -198,14 +199,6 @@ def top_outline(asset: Asset) -> np.ndarray:
     return top[ConvexHull(top).vertices]  # scipy orders a 2-D hull counter-clockwise
 
 
-def _inside_convex(outline: np.ndarray, points: np.ndarray, margin: float) -> bool:
-    """Every point at least ``margin`` inside a counter-clockwise convex outline."""
-    edges = np.roll(outline, -1, axis=0) - outline
-    rel = points[:, None, :] - outline[None, :, :]
-    cross = edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0]
-    return bool(np.all(cross >= margin * np.linalg.norm(edges, axis=1)[None, :]))
-
-
 def _on_top(i: int, asset: Asset, tops: list[_Top], odds: float, spec: dict, rng: np.random.Generator):
     """Put the object somewhere on a furniture top, by the recipe's odds, if it finds room there."""
     if rng.random() >= odds:
@@ -216,7 +209,8 @@ def _on_top(i: int, asset: Asset, tops: list[_Top], odds: float, spec: dict, rng
         x, y = rng.uniform(lo, hi)
         yaw = float(rng.uniform(-np.pi, np.pi))
         quad = footprint_corners(asset, x, y, yaw, grow_m=spec["min_gap_m"] / 2)  # in the piece's frame
-        if _inside_convex(top.outline, quad, TOP_MARGIN_M) and not any(boxes_overlap(quad, q) for q in top.quads):
+        if inside_convex(quad, top.outline, grow=-TOP_MARGIN_M).all() and \
+                not any(boxes_overlap(quad, q) for q in top.quads):
             break
     else:
         return None

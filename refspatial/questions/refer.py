@@ -213,13 +213,16 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, category: str | None, co
     key = ("scored", target.object_id, category, color)
     if key not in view.cache:
         head, sets = _kept_sets(view, category, color, parts)
-        bit = 1 << target.object_id
-        predicate_bit = {name: 1 << (len(view.objects) + k) for k, name in enumerate(sorted(PREDICATES))}
-        scored = {kind: [_Part(r, sum(1 << a.object_id for a in r.anchors) | predicate_bit[r.predicate], *sets[r])
+        bit, shift = 1 << target.object_id, len(view.objects)
+        scored = {kind: [_Part(r, sum(1 << a.object_id for a in r.anchors) | _PREDICATE_BITS[r.predicate] << shift,
+                               *sets[r])
                          for r in rels if r in sets and sets[r][0] & bit]
                   for kind, rels in parts.items()}
         view.cache[key] = (head, scored)
     return view.cache[key]
+
+
+_PREDICATE_BITS = {name: 1 << k for k, name in enumerate(sorted(PREDICATES))}  # placed above the object-id bits
 
 
 def _fitting_combinations(target: int, head: int, scored, shapes, rng) -> list[tuple[_Part, ...]]:

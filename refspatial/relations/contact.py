@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from .facts import ObjectFacts, ViewFacts
-from .geometry import gap_between
 from .registry import Verdict, predicate
 
 SEPARATED_GAP_M = 0.02  # a ground gap wider than this between footprints is clearly apart
@@ -20,7 +19,7 @@ def touching(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """
     if (min(a.object_id, b.object_id), max(a.object_id, b.object_id)) in v.contacts:
         return True
-    if gap_between(a.footprint_world, b.footprint_world) > SEPARATED_GAP_M:
+    if v.footprint_gap(a, b) > SEPARATED_GAP_M:
         return False
     return None
 

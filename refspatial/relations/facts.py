@@ -18,8 +18,8 @@ import numpy as np
 
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
-from .geometry import overlap_share, project
-from .masks import object_boxes, object_pixels
+from .geometry import gap_between, overlap_share, project
+from .masks import BOXES_KEY, object_boxes, object_pixels
 
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
 MIN_VISIBLE_PX = 20
@@ -98,6 +98,14 @@ class ViewFacts:
     def height(self) -> int:
         return int(self.seg.shape[0])
 
+    def footprint_gap(self, a: ObjectFacts, b: ObjectFacts) -> float:
+        """Ground gap between two objects' footprints, memoised: touching, separated, near and
+        far all ask it, for both orders of each pair."""
+        key = ("gap", *sorted((a.object_id, b.object_id)))
+        if key not in self.cache:
+            self.cache[key] = gap_between(a.footprint_world, b.footprint_world)
+        return self.cache[key]
+
     def askable(self) -> list[ObjectFacts]:
         return [o for o in self.objects if o.status == "visible"]
 
@@ -113,7 +121,7 @@ def view_facts(scene: Scene, view: View) -> ViewFacts:
                              np.array(scene.table.size_m))
     return ViewFacts(tuple(objects), right, forward, view.seg, view.depth_m, view.K, view.T_world_cam,
                      tuple(scene.table.size_m), scene.table.top_z_m, tuple(scene.table.levels_m),
-                     frozenset(scene.contacts), table_surface=scene.table.surface)
+                     frozenset(scene.contacts), table_surface=scene.table.surface, cache={BOXES_KEY: boxes})
 
 
 def surfaces(top_z: float, levels: tuple[float, ...]) -> dict[int, float]:

@@ -19,11 +19,14 @@ def object_boxes(seg: np.ndarray) -> list[Box | None]:
     return ndimage.find_objects(seg + 1)  # label id + 1; the background (-1) becomes 0, unlabelled
 
 
+BOXES_KEY = ("boxes",)  # where a ViewFacts' cache keeps its segmentation's object boxes
+
+
 def cached_boxes(view) -> list[Box | None]:
     """``object_boxes`` of a ViewFacts' segmentation, memoised in its cache."""
-    if ("boxes",) not in view.cache:
-        view.cache[("boxes",)] = object_boxes(view.seg)
-    return view.cache[("boxes",)]
+    if BOXES_KEY not in view.cache:
+        view.cache[BOXES_KEY] = object_boxes(view.seg)
+    return view.cache[BOXES_KEY]
 
 
 def box_of(boxes: list[Box | None], object_id: int) -> Box | None:

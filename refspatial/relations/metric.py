@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 from .facts import ObjectFacts, ViewFacts
-from .geometry import gap_between
 from .registry import Quantity, Verdict, compare, predicate
 
 HEIGHT_MARGIN = (0.01, 0.10)  # (absolute m, share of the taller): closer heights are a near-tie
@@ -58,8 +57,8 @@ def thinner_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     return wider_than(v, b, a)
 
 
-def _gap_and_scale(a: ObjectFacts, b: ObjectFacts) -> tuple[float, float]:
-    gap = gap_between(a.footprint_world, b.footprint_world)
+def _gap_and_scale(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, float]:
+    gap = v.footprint_gap(a, b)
     scale = float(np.mean([a.footprint_m.max(), b.footprint_m.max()]))
     return gap, scale
 
@@ -71,7 +70,7 @@ def near(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     True: gap <= max(5 cm, 0.5 x mean footprint size). False: gap >= max(25 cm,
     2 x mean footprint size). Undecided in between.
     """
-    gap, scale = _gap_and_scale(a, b)
+    gap, scale = _gap_and_scale(v, a, b)
     if gap <= max(NEAR_GAP[0], NEAR_GAP[1] * scale):
         return True
     if gap >= max(FAR_GAP[0], FAR_GAP[1] * scale):

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..scene import Cavity, PlacedObject, quat_to_matrix
 from .facts import ObjectFacts, ViewFacts, _horizontal
-from .masks import object_boxes, object_pixels
+from .masks import BOXES_KEY, object_boxes, object_pixels
 
 DIGITS = 6  # micrometres and micro-units: far below every threshold
 
@@ -65,7 +65,7 @@ def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.n
     table = scene["table"]
     levels = tuple(table.get("levels_m", ()))
     return ViewFacts(objects, right, forward, seg, depth_m, K, T, tuple(table["size_m"]), table["top_z_m"],
-                     levels, contacts, table_surface=table.get("surface", "table"))
+                     levels, contacts, table_surface=table.get("surface", "table"), cache={BOXES_KEY: boxes})
 
 
 def _object_facts(o: dict, seg: np.ndarray, depth_m: np.ndarray, right, forward, boxes) -> ObjectFacts:
