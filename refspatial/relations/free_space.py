@@ -86,7 +86,8 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
         return None
     support, polygon, z = platform
     cells = _grid(v, constraints, polygon)
-    keep = _in_regions(v, constraints, cells) & _free(v, cells, support, polygon, z)
+    raster = _raster(v, support, polygon, z)
+    keep = _in_regions(v, constraints, cells) & raster.at(cells)
     area = float(keep.sum() * CELL_M**2)
     if not any(c.kind == "offset" for c in constraints) and area <= MIN_FREE_AREA_M2:
         return None
@@ -106,9 +107,10 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
         return None
     mask = None
     if with_mask:
-        mask = _image_mask(v, constraints, support, polygon, z, free)
+        mask = _image_mask(v, constraints, raster, z, free)
         if not _on_mask(v, mask, point):
-            snapped = _snap(v, mask, uv[0])
+            snapped = _snap(v, mask, uv[0], z, lambda p: _in_regions(v, constraints, p) &
+                            _free_exact(v, p, support, polygon, z))
             if snapped is None:
                 return None
             point, world = snapped, _lift(v, snapped, z)
@@ -144,6 +146,8 @@ def _reach(a: ObjectFacts, axis: np.ndarray) -> tuple[float, float]:
 
 
 def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> np.ndarray:
+    """Centres of the 1 cm lattice cells (fixed to the world origin, so that every question on a
+    platform shares one obstacle raster) inside the platform's box and the region's box."""
     lo, hi = polygon.min(0), polygon.max(0)
     for c in constraints:  # shrink the grid to the region's box when one is known
         a = v.objects[c.anchors[0]]
@@ -156,8 +160,9 @@ def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> np.ndarray:
             lo, hi = np.maximum(lo, corners.min(0)), np.minimum(hi, corners.max(0))
     if np.any(hi <= lo):
         return np.zeros((0, 2))
-    xs = np.arange(lo[0] + CELL_M / 2, hi[0], CELL_M)
-    ys = np.arange(lo[1] + CELL_M / 2, hi[1], CELL_M)
+    first, last = np.ceil(lo / CELL_M - 0.5).astype(int), np.floor(hi / CELL_M - 0.5).astype(int)
+    xs = (np.arange(first[0], last[0] + 1) + 0.5) * CELL_M
+    ys = (np.arange(first[1], last[1] + 1) + 0.5) * CELL_M
     return np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
 
 
@@ -200,15 +205,67 @@ def _offset(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
 REGIONS = {"sector": _sector, "between": _between, "on_top": _on_top, "offset": _offset}
 
 
-def _free(v: ViewFacts, points: np.ndarray, support: int, polygon: np.ndarray, z: float) -> np.ndarray:
-    """On the platform and clear of every object that occupies the space just above it (seen or not):
-    the platform itself is not an obstacle, nor is anything on a shelf board below or above."""
+class _Raster:
+    """Which 1 cm lattice cells of a platform are free: on it, EDGE_MARGIN_M inside its edge, and
+    CLEARANCE_M clear of every obstacle footprint (tested at the cell centres).
+
+    Built once per view and platform: the relation stage and the questions solve hundreds of
+    regions on the same few platforms, and testing every obstacle per region cost more than
+    everything else in those stages together.
+    """
+
+    def __init__(self, v: ViewFacts, support: int, polygon: np.ndarray, z: float) -> None:
+        self.first = np.floor(polygon.min(0) / CELL_M).astype(int)
+        last = np.floor(polygon.max(0) / CELL_M).astype(int)
+        shape = (last - self.first + 1)[::-1]  # rows follow y, columns x
+        self.free = inside_convex(self._centres(self.first, shape), polygon, grow=-EDGE_MARGIN_M).reshape(shape)
+        for o in _obstacles(v, support, z):
+            a = np.maximum(np.floor((o.footprint_world.min(0) - CLEARANCE_M) / CELL_M).astype(int), self.first)
+            b = np.minimum(np.floor((o.footprint_world.max(0) + CLEARANCE_M) / CELL_M).astype(int), last)
+            if np.any(b < a):
+                continue
+            block = (b - a + 1)[::-1]
+            hit = inside_convex(self._centres(a, block), o.footprint_world, grow=CLEARANCE_M).reshape(block)
+            window = self.free[a[1] - self.first[1]:b[1] - self.first[1] + 1, a[0] - self.first[0]:b[0] - self.first[0] + 1]
+            window &= ~hit
+
+    @staticmethod
+    def _centres(first: np.ndarray, shape: np.ndarray) -> np.ndarray:
+        xs = (np.arange(first[0], first[0] + shape[1]) + 0.5) * CELL_M
+        ys = (np.arange(first[1], first[1] + shape[0]) + 0.5) * CELL_M
+        return np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+
+    def at(self, points: np.ndarray) -> np.ndarray:
+        """Whether the cell holding each point is free (False off the platform's box)."""
+        idx = np.floor(points / CELL_M).astype(int) - self.first
+        rows, cols = idx[:, 1], idx[:, 0]
+        ok = (rows >= 0) & (rows < self.free.shape[0]) & (cols >= 0) & (cols < self.free.shape[1])
+        out = np.zeros(len(points), dtype=bool)
+        out[ok] = self.free[rows[ok], cols[ok]]
+        return out
+
+
+def _raster(v: ViewFacts, support: int, polygon: np.ndarray, z: float) -> _Raster:
+    key = ("free_raster", support, polygon.tobytes())
+    if key not in v.cache:
+        v.cache[key] = _Raster(v, support, polygon, z)
+    return v.cache[key]
+
+
+def _free_exact(v: ViewFacts, points: np.ndarray, support: int, polygon: np.ndarray, z: float) -> np.ndarray:
+    """The raster's test at arbitrary points rather than cell centres (for the few answer points
+    that are snapped to a pixel)."""
     keep = inside_convex(points, polygon, grow=-EDGE_MARGIN_M)
-    for o in v.objects:
-        lo, hi = o.aabb_world_m[0, 2], o.aabb_world_m[1, 2]
-        if o.object_id != support and lo < z + OBSTACLE_BAND_M and hi > z + 0.005:
-            keep &= ~inside_convex(points, o.footprint_world, grow=CLEARANCE_M)
+    for o in _obstacles(v, support, z):
+        keep &= ~inside_convex(points, o.footprint_world, grow=CLEARANCE_M)
     return keep
+
+
+def _obstacles(v: ViewFacts, support: int, z: float) -> list[ObjectFacts]:
+    """Every object, seen or not, occupying the space just above a platform at height z: the
+    platform itself is not one, nor is anything on a shelf board below or above."""
+    return [o for o in v.objects if o.object_id != support
+            and o.aabb_world_m[0, 2] < z + OBSTACLE_BAND_M and o.aabb_world_m[1, 2] > z + 0.005]
 
 
 def _visible(v: ViewFacts, points_world: np.ndarray) -> np.ndarray:
@@ -220,9 +277,8 @@ def _visible(v: ViewFacts, points_world: np.ndarray) -> np.ndarray:
     return out
 
 
-def _image_mask(v: ViewFacts, constraints, support: int, polygon: np.ndarray, z: float,
-                cells: np.ndarray) -> np.ndarray:
-    """Pixels whose ray meets the platform plane at a valid free point that is not occluded.
+def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, cells: np.ndarray) -> np.ndarray:
+    """Pixels whose ray meets the platform plane, unoccluded, inside the region and in a free cell.
 
     Only the image window covering the free cells (grown by a cell) is evaluated.
     """
@@ -243,21 +299,29 @@ def _image_mask(v: ViewFacts, constraints, support: int, polygon: np.ndarray, z:
     hit = t[:2] + dirs[:, :2] * s[:, None]
     ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1].reshape(-1) - s) <= OCCLUSION_M)
     idx = np.nonzero(ok)[0]
-    good = _in_regions(v, constraints, hit[idx]) & _free(v, hit[idx], support, polygon, z)
+    good = _in_regions(v, constraints, hit[idx]) & raster.at(hit[idx])
     window = np.zeros(len(ok), dtype=bool)
     window[idx[good]] = True
     mask[r0:r1, c0:c1] = window.reshape(r1 - r0, c1 - c0)
     return mask
 
 
-def _snap(v: ViewFacts, mask: np.ndarray, uv: np.ndarray) -> tuple[float, float] | None:
-    """The mask pixel nearest to an image point, as a normalised point that rounds back onto the mask."""
+SNAP_TRIES = 256  # mask pixels, nearest first, tried for a snapped answer point
+
+
+def _snap(v: ViewFacts, mask: np.ndarray, uv: np.ndarray, z: float, valid) -> tuple[float, float] | None:
+    """The mask pixel nearest to an image point whose plane point is ``valid`` by the exact test
+    (a mask pixel is only known to fall in a free cell), as a normalised point that rounds back
+    onto the mask."""
     rows, cols = np.nonzero(mask)
     if len(rows) == 0:
         return None
-    k = int(np.argmin((cols + 0.5 - uv[0]) ** 2 + (rows + 0.5 - uv[1]) ** 2))
-    point = _normalised(v, np.array([cols[k] + 0.5, rows[k] + 0.5]))
-    return point if point is not None and _on_mask(v, mask, point) else None
+    order = np.argsort((cols + 0.5 - uv[0]) ** 2 + (rows + 0.5 - uv[1]) ** 2, kind="stable")[:SNAP_TRIES]
+    for k in order:
+        point = _normalised(v, np.array([cols[k] + 0.5, rows[k] + 0.5]))
+        if point is not None and _on_mask(v, mask, point) and valid(_lift(v, point, z)[None, :2])[0]:
+            return point
+    return None
 
 
 def _normalised(v: ViewFacts, uv: np.ndarray) -> tuple[float, float] | None:
