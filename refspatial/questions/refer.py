@@ -9,15 +9,13 @@ picks the intended object and none of its relations is degenerate.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import islice, product
-
 import numpy as np
 
 from ..relations import PREDICATES, ObjectFacts, ViewFacts
 from .program import ORDINAL_AXES, Node, ProgramError, execute, is_degenerate
 
 MAX_RANK = 3
-COMBOS_CHECKED = 4000  # part combinations checked by candidate sets per shape (cheap set operations)
+COMBOS_CHECKED = 200_000  # part combinations checked at once per shape (array operations on bit masks)
 COMBOS_WANTED = 24  # enough fitting combinations to choose from with variety
 
 
@@ -185,11 +183,11 @@ class _Part:
     """A relation part with what it does to one head's candidates (precomputed for fast search)."""
 
     rel: Relation
-    # Bits of the anchors' ids, and above them one bit for the predicate: two parts may be
-    # combined only if their tags share no bit (distinct anchors, distinct predicates).
-    tag: int
-    # Candidate sets as bit masks (bit i: object i): the search tests ~10^4 combinations per
-    # description, and integer AND is several times faster than frozenset intersection.
+    # Two parts may be combined only if they share no anchor and no predicate.
+    anchors: int  # bit mask of the anchors' ids
+    predicate: int  # index of the predicate
+    # Candidate sets as bit masks (bit i: object i): the search tests up to ~10^5 combinations
+    # per description, as whole arrays of masks at once.
     kept: int  # candidates it keeps
     undecided: int  # candidates it cannot decide
 
@@ -213,42 +211,69 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, category: str | None, co
     key = ("scored", target.object_id, category, color)
     if key not in view.cache:
         head, sets = _kept_sets(view, category, color, parts)
-        bit, shift = 1 << target.object_id, len(view.objects)
-        scored = {kind: [_Part(r, sum(1 << a.object_id for a in r.anchors) | _PREDICATE_BITS[r.predicate] << shift,
-                               *sets[r])
+        bit = 1 << target.object_id
+        scored = {kind: [_Part(r, sum(1 << a.object_id for a in r.anchors), _PREDICATE_INDEX[r.predicate], *sets[r])
                          for r in rels if r in sets and sets[r][0] & bit]
                   for kind, rels in parts.items()}
         view.cache[key] = (head, scored)
     return view.cache[key]
 
 
-_PREDICATE_BITS = {name: 1 << k for k, name in enumerate(sorted(PREDICATES))}  # placed above the object-id bits
+_PREDICATE_INDEX = {name: k for k, name in enumerate(sorted(PREDICATES))}
 
 
 def _fitting_combinations(target: int, head: int, scored, shapes, rng) -> list[tuple[_Part, ...]]:
-    """Every combination of parts with a wanted shape that, by the candidate sets, picks only the
-    target with no idle part (checking at most COMBOS_CHECKED per shape, in random order)."""
-    found = []
+    """Up to COMBOS_WANTED combinations of parts with a wanted shape that, by the candidate sets,
+    pick only the target with no idle part, in random order (shapes in the order given)."""
+    found: list[tuple[_Part, ...]] = []
     for shape in shapes:
-        lists = [[scored[kind][int(i)] for i in rng.permutation(len(scored[kind]))] for kind in shape]
-        for combo in islice(product(*lists), COMBOS_CHECKED):
-            if len(combo) > 1 and not _independent(combo):
-                continue
-            if _picks_only(1 << target, head, [(p.kept, p.undecided) for p in combo]):
-                found.append(combo)
-                if len(found) >= COMBOS_WANTED:
-                    return found
+        lists = [scored[kind] for kind in shape]
+        size = int(np.prod([len(x) for x in lists]))
+        if size == 0:
+            continue
+        if size > COMBOS_CHECKED:  # keep a random share of each list so that the product fits
+            keep = (COMBOS_CHECKED / size) ** (1 / len(lists))
+            lists = [[x[int(i)] for i in rng.permutation(len(x))[:max(1, int(len(x) * keep))]] for x in lists]
+        fits = np.argwhere(_fits(1 << target, head, lists))
+        for row in fits[rng.permutation(len(fits))][:COMBOS_WANTED - len(found)]:
+            found.append(tuple(lists[k][i] for k, i in enumerate(row)))
+        if len(found) >= COMBOS_WANTED:
+            break
     return found
 
 
-def _independent(combo: tuple[_Part, ...]) -> bool:
-    """Distinct anchors and distinct predicates across the parts."""
-    seen = 0
-    for p in combo:
-        if seen & p.tag:
-            return False
-        seen |= p.tag
-    return True
+def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
+    """For every combination (one part from each list, in order), whether it is independent
+    (distinct anchors, distinct predicates) and, run in order, decides every remaining candidate,
+    keeps only the target, and has no idle part (dropping any one leaves more than the target).
+    Returns a boolean array with one axis per list. ``target`` is the target's bit."""
+    n = len(lists)
+    wide = max(head.bit_length(), *(p.kept.bit_length() | p.undecided.bit_length() | p.anchors.bit_length()
+                                    for x in lists for p in x)) > 63
+    dtype = object if wide else np.uint64  # Python ints past 63 objects: slower, same logic
+
+    def column(k: int, field: str) -> np.ndarray:
+        shape = [1] * n
+        shape[k] = -1
+        return np.array([getattr(p, field) for p in lists[k]], dtype=int if field == "predicate" else dtype).reshape(shape)
+
+    kept = [column(k, "kept") for k in range(n)]
+    ok = np.ones([len(x) for x in lists], dtype=bool)
+    remaining = np.array(head, dtype=dtype)
+    for k in range(n):
+        ok &= (remaining & column(k, "undecided")) == 0
+        remaining = remaining & kept[k]
+    ok &= remaining == target
+    for k in range(n):
+        others = np.array(head, dtype=dtype)
+        for j in range(n):
+            if j != k:
+                others = others & kept[j]
+        ok &= others != target
+    for i in range(n):
+        for j in range(i + 1, n):
+            ok &= ((column(i, "anchors") & column(j, "anchors")) == 0) & (column(i, "predicate") != column(j, "predicate"))
+    return ok
 
 
 def _kept_sets(view: ViewFacts, category: str | None, color: str | None, parts):
@@ -274,27 +299,6 @@ def _kept_sets(view: ViewFacts, category: str | None, color: str | None, parts):
                 kept |= 1 << i
         out[rel] = (kept, undecided)
     return sum(1 << i for i in ids), out
-
-
-def _picks_only(target: int, head: int, parts: list[tuple[int, int]]) -> bool:
-    """Run in order, the parts decide every remaining candidate, keep only the target, and none of
-    them is idle (dropping any one leaves more than the target). Sets are bit masks; ``target``
-    is the target's bit."""
-    remaining = head
-    for kept, undecided in parts:
-        if remaining & undecided:
-            return False
-        remaining &= kept
-    if remaining != target:
-        return False
-    for k in range(len(parts)):
-        others = head
-        for j, (kept, _) in enumerate(parts):
-            if j != k:
-                others &= kept
-        if others == target:
-            return False
-    return True
 
 
 def _holds(view: ViewFacts, name: str, objs: list[ObjectFacts]) -> bool:
