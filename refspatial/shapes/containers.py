@@ -20,7 +20,7 @@ def build_box(p: dict[str, float]) -> Built:
     e = 0.03 * min(L, W)
     base = trimesh.creation.box(bounds=[(e - L / 2, e - W / 2, 0), (L / 2 - e, W / 2 - e, 0.8 * H)])
     visual = g.union([base, trimesh.creation.box(bounds=[(-L / 2, -W / 2, 0.75 * H), (L / 2, W / 2, H)])])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register(
@@ -44,7 +44,7 @@ def build_vase(p: dict[str, float]) -> Built:
     r = knots_r[k] + (knots_r[k + 1] - knots_r[k]) * u  # cosine blend between knots: smooth, no overshoot
     inner = [(ri - w, zi) for ri, zi in zip(r[-2::-1], z[-2::-1]) if zi > b] + [(float(np.interp(b, z, r)) - w, b)]
     visual = g.revolve([(0, 0), *zip(r[:-1], z[:-1]), *g.lip(r[-1], r[-1] - w, h), *inner, (0, b)])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 def _torus(radius: float, tube_r: float, z: float, sections: int = 32, around: int = 6) -> trimesh.Trimesh:
@@ -159,7 +159,7 @@ def build_tissue_box(p: dict[str, float]) -> Built:
     )
     tissue = g.moved(tissue, (0, 0, H - 0.012))
     visual = g.union([g.difference(body, hole), tissue])
-    return g.finish(visual, [body.convex_hull, tissue.convex_hull])
+    return g.finish(visual, [g.hull(body.vertices), g.hull(tissue.vertices)])
 
 
 _PENS = (0.0, 2.1, 4.2)  # directions (radians) the three pens lean towards
@@ -184,4 +184,4 @@ def build_pen_holder(p: dict[str, float]) -> Built:
         clip = g.box((-0.001, -0.0012, 0), (0.0065, 0.0012, 0.25 * lp))
         clip = g.moved(g.rotated(g.rotated(clip, lean, g.Y), direction, g.Z), foot + 0.74 * lp * d)
         pens.append(g.union([body, cap, clip]))
-    return g.finish(g.union([cup, *pens]), parts + [pen.convex_hull for pen in pens])
+    return g.finish(g.union([cup, *pens]), parts + [g.hull(pen.vertices) for pen in pens])

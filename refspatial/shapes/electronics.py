@@ -51,7 +51,7 @@ def build_laptop(p: dict[str, float]) -> Built:
     screen = g.rotated(screen, -(angle - math.pi / 2), g.Y)
     screen.apply_translation((-D / 2 - 0.2 * st, 0, 0.8 * t))
     visual = g.union([g.difference(base, well, pad), keys, screen])
-    return g.finish(visual, [base.convex_hull, screen.convex_hull])
+    return g.finish(visual, [g.hull(base.vertices), g.hull(screen.vertices)])
 
 
 @register("keyboard", "width_m depth_m height_m", "depth_m*2.5 <= width_m", "height_m*4 <= depth_m")
@@ -70,7 +70,7 @@ def build_keyboard(p: dict[str, float]) -> Built:
     keys = g.extrude(outlines, -0.002, 0.004)
     keys.vertices[:, 2] += H + (front_h - H) * (keys.vertices[:, 0] + D / 2) / D  # follow the sloping top
     visual = g.union([case, keys])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("phone", "length_m width_m thickness_m", "width_m*1.6 <= length_m", "thickness_m*6 <= width_m")
@@ -85,7 +85,7 @@ def build_phone(p: dict[str, float]) -> Built:
     slot = g.extrude([g.rect(L / 2 - 0.035 * L, -0.1 * W, L / 2 - 0.028 * L, 0.1 * W)], t - 0.0006, 2 * t, 0.0003)
     camera = g.cylinder(0.025 * W, (L / 2 - 0.032 * L, 0.2 * W, t - 0.0006), (L / 2 - 0.032 * L, 0.2 * W, 2 * t), 10)
     visual = g.difference(body, screen, slot, camera)
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("remote", "length_m width_m thickness_m", "width_m*2.9 <= length_m", "thickness_m*1.5 <= width_m")
@@ -104,7 +104,7 @@ def build_remote(p: dict[str, float]) -> Built:
             x, y = -0.05 * L - i * 0.075 * L, j * 0.27 * W
             buttons.append(g.cylinder(r, (x, y, t - 0.001), (x, y, t + 0.001), 10))
     visual = g.union([body, *buttons])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("mouse", "length_m width_m height_m", "width_m*1.2 <= length_m", "height_m*1 <= width_m")
@@ -126,4 +126,4 @@ def build_mouse(p: dict[str, float]) -> Built:
     wheel_z = H * (1 - (wheel_x / (L / 2)) ** 2) ** 0.3 * (1 - 0.25 * wheel_x / (L / 2)) - 0.07 * L
     wheel = g.cylinder(0.09 * L, (wheel_x, -0.003, wheel_z), (wheel_x, 0.003, wheel_z), 16)
     visual = g.union([g.difference(dome, split, well), wheel])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])

@@ -23,7 +23,7 @@ def build_apple(p: dict[str, float]) -> Built:
     top = z[-1]
     stalk = trimesh.creation.cylinder(radius=0.06 * R, segment=[(0, 0, top - 0.1 * R), (0, 0, top + stem)], sections=8)
     visual = g.union([g.revolve(np.column_stack([r, z])), stalk])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("banana", "length_m radius_m bend_deg", "radius_m*5 <= length_m", "bend_deg*1 <= 150")
@@ -75,7 +75,7 @@ def build_orange(p: dict[str, float]) -> Built:
     sepals = [g.rotated(g.ellipsoid((0.09 * R, 0, top), (0.08 * R, 0.035 * R, 0.02 * R), 1), a, g.Z) for a in angles]
     stalk = g.cylinder(0.05 * R, (0, 0, top - 0.05 * R), (0, 0, top + 0.06 * R), 8)
     visual = g.union([body, *sepals, stalk])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("lemon", "length_m radius_m", "radius_m*2.2 <= length_m")
@@ -92,7 +92,7 @@ def build_lemon(p: dict[str, float]) -> Built:
     r[0] = r[-1] = 0.0
     lemon = g.rotated(g.revolve(np.column_stack([r, t * L / 2]), 32), math.pi / 2, g.Y)  # long axis along x
     visual = g.cut_below(_peel(lemon, 0.006 * R, (0, 0, 0), -np.inf), -0.97 * R)  # the flat patch it rests on
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("bread", "length_m width_m height_m", "width_m*1.2 <= length_m", "height_m*0.9 <= width_m")
@@ -109,7 +109,7 @@ def build_bread(p: dict[str, float]) -> Built:
         cut = g.box((-0.004, -0.36 * W, -0.012), (0.004, 0.36 * W, 0.02))
         slashes.append(g.moved(g.rotated(cut, math.radians(35), g.Z), (x, 0, top)))
     visual = g.difference(loaf, *slashes)
-    return g.finish(visual, [loaf.convex_hull])
+    return g.finish(visual, [g.hull(loaf.vertices)])
 
 
 @register("cake", "radius_m height_m", "height_m*0.8 <= radius_m")
@@ -130,7 +130,7 @@ def build_cake(p: dict[str, float]) -> Built:
         [np.array([(0.3 * R, 0), (2 * R, -2 * R * math.tan(half)), (2 * R, 2 * R * math.tan(half))])], -0.01, 2 * H
     )
     visual = g.difference(whole, wedge)
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("donut", "radius_m thickness_m", "thickness_m*1.4 <= radius_m")
@@ -146,4 +146,4 @@ def build_donut(p: dict[str, float]) -> Built:
     )
     section = section ^ manifold3d.CrossSection([g.rect(0, -0.8 * r, R, r)])  # flat where it rests
     visual = g.from_manifold(section.revolve(circular_segments=40))
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])

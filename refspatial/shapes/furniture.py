@@ -43,7 +43,7 @@ def build_side_table(p: dict[str, float]) -> Built:
     top = g.revolve([(0, H - t), (R - 0.006, H - t), (R, H - t + 0.006), (R, H - 0.006), (R - 0.006, H), (0, H)])
     column = g.cylinder(c, (0, 0, foot_h - 0.002), (0, 0, H - t + 0.002), 20)
     foot = g.revolve([(0, 0), (foot_r, 0), (foot_r, 0.6 * foot_h), (0.8 * foot_r, foot_h), (0, foot_h)])
-    return g.finish(g.union([top, column, foot]), [top, column.convex_hull, foot])
+    return g.finish(g.union([top, column, foot]), [top, g.hull(column.vertices), foot])
 
 
 @register("stool", "radius_m height_m seat_m leg_m", "seat_m*5 <= height_m", "leg_m*5 <= radius_m")
@@ -57,7 +57,7 @@ def build_stool(p: dict[str, float]) -> Built:
     legs = [g.cylinder(r, (x, y, 0.0), (x, y, H - s + 0.002), 12) for x, y in feet]
     rung_z = 0.33 * H
     rungs = [g.cylinder(0.6 * r, (*feet[k], rung_z), (*feet[(k + 1) % 4], rung_z), 10) for k in range(4)]
-    return g.finish(g.union([seat, *legs, *rungs]), [seat, *(leg.convex_hull for leg in legs)])
+    return g.finish(g.union([seat, *legs, *rungs]), [seat, *(g.hull(leg.vertices) for leg in legs)])
 
 
 @register("chair", "seat_width_m seat_depth_m seat_height_m back_m leg_m",

@@ -7,6 +7,7 @@ numbers.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, Sequence
 
@@ -45,22 +46,37 @@ def lip(r_out: float, r_in: float, top: float) -> list[tuple[float, float]]:
 
 
 def union(meshes: Sequence[trimesh.Trimesh]) -> trimesh.Trimesh:
-    return outward(trimesh.boolean.union([as_volume(m) for m in meshes], engine="manifold"))
-
-
-def as_volume(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    """The mesh, or for the rare parameter draw where a thin extruded outline folds over itself
-    (not a closed volume, which booleans refuse), its convex hull."""
-    if mesh.is_volume:
-        return mesh
-    repaired = mesh.copy()
-    trimesh.repair.fix_winding(repaired)
-    trimesh.repair.fix_normals(repaired)
-    return repaired if repaired.is_volume else mesh.convex_hull
+    return _trimesh(manifold3d.Manifold.batch_boolean([_solid(m) for m in meshes], manifold3d.OpType.Add))
 
 
 def difference(body: trimesh.Trimesh, *cutters: trimesh.Trimesh) -> trimesh.Trimesh:
-    return outward(trimesh.boolean.difference([body, *cutters], engine="manifold"))
+    cut = manifold3d.Manifold.batch_boolean([_solid(m) for m in cutters], manifold3d.OpType.Add)
+    return _trimesh(_solid(body) - cut)
+
+
+# Booleans call manifold3d directly: trimesh's wrapper first proves every input a volume with
+# its mass properties (about half of all shape-building time); manifold checks the topology in
+# C++, and a positive volume says the faces point outward.
+def _solid(mesh: trimesh.Trimesh) -> manifold3d.Manifold:
+    """The mesh as a manifold solid; for the rare parameter draw where a thin extruded outline
+    folds over itself (not a closed volume), the repaired mesh or else its convex hull."""
+    solid = _manifold(mesh)
+    if solid.status() == manifold3d.Error.NoError and solid.volume() > 0:
+        return solid
+    repaired = mesh.copy()
+    trimesh.repair.fix_winding(repaired)
+    trimesh.repair.fix_normals(repaired)
+    return _manifold(repaired if repaired.is_volume else mesh.convex_hull)
+
+
+def _manifold(mesh: trimesh.Trimesh) -> manifold3d.Manifold:
+    return manifold3d.Manifold(manifold3d.Mesh(vert_properties=np.asarray(mesh.vertices, dtype=np.float32),
+                                               tri_verts=np.asarray(mesh.faces, dtype=np.uint32)))
+
+
+def _trimesh(solid: manifold3d.Manifold) -> trimesh.Trimesh:
+    mesh = solid.to_mesh()
+    return trimesh.Trimesh(mesh.vert_properties.astype(np.float64), mesh.tri_verts.astype(np.int64), process=False)
 
 
 def hull(points: Any) -> trimesh.Trimesh:
@@ -92,11 +108,21 @@ def cylinder(radius: float, p0: Sequence[float], p1: Sequence[float], sections: 
     return trimesh.creation.cylinder(radius=radius, segment=[p0, p1], sections=sections)
 
 
+def sphere(subdivisions: int, radius: float = 1.0) -> trimesh.Trimesh:
+    """Icosphere about the origin (subdividing is the expensive part, so it happens once)."""
+    vertices, faces = _unit_sphere(subdivisions)
+    return trimesh.Trimesh(vertices * radius, faces.copy(), process=False)
+
+
+@functools.lru_cache(maxsize=None)
+def _unit_sphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
+    unit = trimesh.creation.icosphere(subdivisions=subdivisions)
+    return np.array(unit.vertices), np.array(unit.faces)
+
+
 def ellipsoid(centre: Sequence[float], radii: Sequence[float], subdivisions: int = 2) -> trimesh.Trimesh:
-    blob = trimesh.creation.icosphere(subdivisions=subdivisions)
-    blob.apply_scale(radii)
-    blob.apply_translation(centre)
-    return blob
+    vertices, faces = _unit_sphere(subdivisions)
+    return trimesh.Trimesh(vertices * np.asarray(radii, float) + np.asarray(centre, float), faces.copy(), process=False)
 
 
 def circle(cx: float, cy: float, radius: float, n: int = 16) -> np.ndarray:
@@ -127,7 +153,7 @@ def rounded_block(lo: Sequence[float], hi: Sequence[float], radius: float) -> tr
     box keeps its size): the hull of eight corner spheres."""
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     radius = min(radius, 0.499 * float(np.min(hi - lo)))
-    ball = trimesh.creation.icosphere(subdivisions=1, radius=radius).vertices
+    ball = sphere(1, radius).vertices
     lo, hi = lo + radius, hi - radius
     corners = np.array(np.meshgrid(*zip(lo, hi))).reshape(3, -1).T
     return hull(np.vstack([ball + c for c in corners]))

@@ -25,7 +25,7 @@ def build_bottle(p: dict[str, float]) -> Built:
     u = np.linspace(0, 1, 9)
     shoulder = np.column_stack([rn + (R - rn) * (1 + np.cos(math.pi * u)) / 2, body + sh * u])
     visual = g.revolve([(0, 0), (R - e, 0), (R, e), *shoulder, (rn, h - cap), (rc, h - cap), (rc, h), (0, h)])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("can", "radius_m height_m")
@@ -36,7 +36,7 @@ def build_can(p: dict[str, float]) -> Built:
     bottom = [(0, 0.6 * e), (R - e, 0), (R - 0.4 * e, 0), (R, 0.6 * e)]
     top = [(R, h - 1.5 * e), (R - 0.5 * e, h - 0.3 * e), (R - 0.5 * e, h), (R - 0.9 * e, h), (R - 0.9 * e, h - 0.5 * e)]
     visual = g.revolve([*bottom, *top, (0, h - 0.5 * e)])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register(
@@ -103,7 +103,7 @@ def build_teapot(p: dict[str, float]) -> Built:
     loop = np.column_stack([-(0.78 * R + 0.42 * R * np.sin(a)), 0 * a, hb * (0.52 + 0.34 * np.cos(a))])
     handle = g.rod(loop, 0.075 * R, g.Y, 10)
     visual = g.union([body, spout, handle])
-    return g.finish(visual, [g.hull(body.vertices), spout.convex_hull, handle.convex_hull], centre=False)
+    return g.finish(visual, [g.hull(body.vertices), g.hull(spout.vertices), g.hull(handle.vertices)], centre=False)
 
 
 @register(
@@ -126,7 +126,7 @@ def build_pan(p: dict[str, float]) -> Built:
     handle = g.rounded_block((0, -hw, -ht / 2), (Lh, hw, ht / 2), 0.45 * ht)
     handle = g.difference(handle, g.cylinder(0.28 * hw, (Lh - 2 * hw, 0, -ht), (Lh - 2 * hw, 0, ht), 12))
     handle = g.moved(g.rotated(handle, -math.radians(12), g.Y), (R - 2 * w, 0, h - 0.6 * ht))
-    return g.finish(g.union([visual, handle]), parts + [handle.convex_hull], centre=False)
+    return g.finish(g.union([visual, handle]), parts + [g.hull(handle.vertices)], centre=False)
 
 
 @register("pot", "radius_m height_m wall_m", "wall_m*12 <= radius_m", "radius_m*0.8 <= height_m")
@@ -143,7 +143,7 @@ def build_pot(p: dict[str, float]) -> Built:
         a = np.linspace(-math.pi / 2, math.pi / 2, 9)
         loop = np.column_stack([0.32 * R * np.sin(a), side * (R - w + 0.035 * np.cos(a)), np.full_like(a, 0.86 * h)])
         handles.append(g.rod(loop, 0.0045, g.Z, 10))
-    return g.finish(g.union([visual, *handles]), parts + [hd.convex_hull for hd in handles])
+    return g.finish(g.union([visual, *handles]), parts + [g.hull(hd.vertices) for hd in handles])
 
 
 @register(
@@ -166,7 +166,7 @@ def build_cutting_board(p: dict[str, float]) -> Built:
         g.rounded_slab(L / 2 - 0.13 * L - gw, W / 2 - inset - gw, t - 0.0030, 2.1 * t, corner, 8),
     )
     visual = g.difference(board, slot, g.moved(ring, (-0.045 * L, 0, 0)))
-    return g.finish(visual, [board.convex_hull])
+    return g.finish(visual, [g.hull(board.vertices)])
 
 
 @register("sponge", "length_m width_m height_m", "height_m*1.5 <= width_m", "width_m*1 <= length_m")
@@ -196,4 +196,4 @@ def build_sponge(p: dict[str, float]) -> Built:
         )
     ]
     visual = g.difference(block, groove, *pores)
-    return g.finish(visual, [block.convex_hull])
+    return g.finish(visual, [g.hull(block.vertices)])

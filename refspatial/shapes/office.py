@@ -24,7 +24,7 @@ def build_book(p: dict[str, float]) -> Built:
     spine.apply_scale((0.5, 1.0, 1.0))
     spine.apply_translation((xs, 0, t / 2))
     visual = g.union([*boxes, spine])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("stapler", "length_m width_m height_m", "width_m*2.8 <= length_m", "height_m*0.55 <= width_m")
@@ -45,7 +45,7 @@ def build_stapler(p: dict[str, float]) -> Built:
     )
     anvil = g.box((0.3 * L, -0.15 * W, 0.19 * H), (0.45 * L, 0.15 * W, 0.23 * H))
     visual = g.union([base, hinge, arm, anvil])
-    return g.finish(visual, [base.convex_hull, arm.convex_hull, hinge.convex_hull])
+    return g.finish(visual, [g.hull(base.vertices), g.hull(arm.vertices), g.hull(hinge.vertices)])
 
 
 @register("pencil", "length_m radius_m", "radius_m*25 <= length_m")
@@ -73,7 +73,7 @@ def build_pencil(p: dict[str, float]) -> Built:
     )
     visual = g.union([shaft, wood, ferrule, rubber, lead])
     visual.apply_translation((0, 0, r * math.cos(math.pi / 6)))  # rest on a flat face
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("glasses_case", "length_m width_m height_m", "width_m*1.5 <= length_m", "height_m*1 <= width_m")
@@ -97,7 +97,7 @@ def build_glasses_case(p: dict[str, float]) -> Built:
         (-W / 2 * 0.93, 0.15 * L, 0.54 * H),
     )
     visual = g.union([g.difference(shell, seam), hinge])
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 @register("clock", "radius_m depth_m", "depth_m*1.1 <= radius_m")
@@ -147,7 +147,7 @@ def build_clock(p: dict[str, float]) -> Built:
         for f, s in zip(feet, (1, -1))
     ]
     visual = g.union([face, g.moved(pin, (0, 0, zc)), *bells, hammer, *feet])
-    body_parts = [g.hull(np.vstack([face.vertices, *[f.vertices for f in feet]])), *[b.convex_hull for b in bells]]
+    body_parts = [g.hull(np.vstack([face.vertices, *[f.vertices for f in feet]])), *[g.hull(b.vertices) for b in bells]]
     return g.finish(visual, body_parts)
 
 
@@ -174,7 +174,7 @@ def build_candle(p: dict[str, float]) -> Built:
     )
     wick = g.rod(path, 0.0011, g.Y, 6)
     visual = g.union([wax, wick])
-    return g.finish(visual, [wax.convex_hull, wick.convex_hull])
+    return g.finish(visual, [g.hull(wax.vertices), g.hull(wick.vertices)])
 
 
 @register(
@@ -207,5 +207,5 @@ def build_lamp(p: dict[str, float]) -> Built:
     shade = g.revolve([(0, 0), (rs, 0), (rs * 0.98, 0.06 * hs), (0.35 * rs, hs), (0, hs)], 32)
     shade = g.moved(g.rotated(shade, math.radians(25), g.Y), tip - (0, 0, hs * 0.85))
     visual = g.union([base, post, arm, knuckle, shade])
-    parts = [base.convex_hull, post.convex_hull, g.hull_of(arm, knuckle), shade.convex_hull]
+    parts = [g.hull(base.vertices), g.hull(post.vertices), g.hull_of(arm, knuckle), g.hull(shade.vertices)]
     return g.finish(visual, parts, centre=False)

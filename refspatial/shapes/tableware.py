@@ -29,7 +29,7 @@ def build_mug(p: dict[str, float]) -> Built:
     path = np.column_stack([r - w / 2 + (p["handle_reach_m"] + w / 2) * np.sin(t), 0 * t, h * (0.55 + 0.3 * np.cos(t))])
     handle = g.tube(g.tube_rings(path, np.full(len(t), p["handle_radius_m"]), np.array([0.0, 1.0, 0.0]), 12), path)
     walls = g.container_parts(np.array([(r, 0), (r, h)]), np.array([(r - w, b), (r - w, h)]), r, b)
-    return g.finish(g.union([body, handle]), walls + [handle.convex_hull], centre=False)
+    return g.finish(g.union([body, handle]), walls + [g.hull(handle.vertices)], centre=False)
 
 
 @register(
@@ -172,7 +172,7 @@ def build_spoon(p: dict[str, float]) -> Built:
         [np.array([(0, -0.17 * b * 2), (n, -0.07 * b * 2), (n, 0.07 * b * 2), (0, 0.17 * b * 2)])], 0, t, 0.002
     )
     handle = g.rotated(handle, -math.atan2(0.75 * c, n), (0, 1, 0), (0, 0, 0))
-    return g.finish(g.union([shell, handle]), [g.hull(shell.vertices), handle.convex_hull])
+    return g.finish(g.union([shell, handle]), [g.hull(shell.vertices), g.hull(handle.vertices)])
 
 
 @register("knife", "length_m blade_width_m handle_thickness_m", "blade_width_m*6 <= length_m")
@@ -186,4 +186,4 @@ def build_knife(p: dict[str, float]) -> Built:
     edge = [(0.38 * L, -0.5 * bw), (0.80 * L, -0.5 * bw), (0.93 * L, -0.36 * bw)]
     spine = [(0.88 * L, 0.45 * bw), (0.38 * L, 0.45 * bw)]
     blade = g.extrude([np.array(edge + tip + spine)], 0, 0.002)
-    return g.finish(g.union([handle, blade]), [handle.convex_hull, blade.convex_hull])
+    return g.finish(g.union([handle, blade]), [g.hull(handle.vertices), g.hull(blade.vertices)])

@@ -50,9 +50,9 @@ def build_scissors(p: dict[str, float]) -> Built:
         loop = g.extrude(_ring(float(loop_c[0]), float(loop_c[1]), rx, ry, 0.006), 0.0, 2.5 * t)
         flat = g.extrude([o if _ccw(o) else o[::-1] for o in outlines], z0, z0 + t, 0.0004)
         pieces += [flat, loop]
-        parts += [flat.convex_hull, loop.convex_hull]
+        parts += [g.hull(flat.vertices), g.hull(loop.vertices)]
     screw = g.cylinder(0.004, (*pivot, 0), (*pivot, 2.6 * t), 12)
-    return g.finish(g.union([*pieces, screw]), parts + [screw.convex_hull])
+    return g.finish(g.union([*pieces, screw]), parts + [g.hull(screw.vertices)])
 
 
 def _ccw(points: np.ndarray) -> bool:
@@ -79,7 +79,7 @@ def build_hammer(p: dict[str, float]) -> Built:
     claw = g.tube(g.tube_rings(path, 0.45 * s * (1 - 0.55 * a / 0.9), g.Z, 8), path)
     claw = g.difference(claw, g.box((hx - hl, -hl, s / 2 - 0.06 * s), (hx + hl, -0.25 * hl, s / 2 + 0.06 * s)))
     head = g.union([block, face, claw])
-    return g.finish(g.union([handle, head]), [handle.convex_hull, head.convex_hull])
+    return g.finish(g.union([handle, head]), [g.hull(handle.vertices), g.hull(head.vertices)])
 
 
 @register("screwdriver", "length_m handle_radius_m", "handle_radius_m*11 <= length_m")
@@ -113,4 +113,4 @@ def build_screwdriver(p: dict[str, float]) -> Built:
         + [(L / 2, dy, dz) for dy in (-1.3 * rs, 1.3 * rs) for dz in (-0.25 * rs, 0.25 * rs)]
     )
     visual = g.union([g.difference(handle, *flutes), shaft, tip])
-    return g.finish(visual, [handle.convex_hull, g.hull_of(shaft, tip)])  # it rests on the facet at -z
+    return g.finish(visual, [g.hull(handle.vertices), g.hull_of(shaft, tip)])  # it rests on the facet at -z

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -27,12 +28,16 @@ _TEDDY = (  # (centre, radii) as fractions of the sitting height; the first five
 def build_teddy_bear(p: dict[str, float]) -> Built:
     """Sitting teddy bear height_m tall: ellipsoid body, head, ears, muzzle, arms and
     forward-pointing legs, face on +x. Two hulls: body with limbs, head with ears and muzzle."""
-    blobs = [trimesh.creation.icosphere(subdivisions=2) for _ in _TEDDY]
-    for blob, (centre, radii) in zip(blobs, _TEDDY):
-        blob.apply_scale(radii)
-        blob.apply_translation(centre)
+    visual, parts = _teddy_unit()
+    return g.finish(visual.copy(), [part.copy() for part in parts], height=p["height_m"])
+
+
+@functools.lru_cache(maxsize=1)
+def _teddy_unit() -> tuple[trimesh.Trimesh, list[trimesh.Trimesh]]:
+    """The bear before scaling: the same every time, and a union of eleven blobs is slow."""
+    blobs = [g.ellipsoid(centre, radii) for centre, radii in _TEDDY]
     parts = [g.hull(np.vstack([m.vertices for m in group])) for group in (blobs[:5], blobs[5:])]
-    return g.finish(g.union(blobs), parts, height=p["height_m"])
+    return g.union(blobs), parts
 
 
 @register("toy_block", "size_m bevel_m", "bevel_m*4 <= size_m")
@@ -72,7 +77,7 @@ def build_toy_car(p: dict[str, float]) -> Built:
     wheels = [g.cylinder(rw, (x, y - ww / 2, rw), (x, y + ww / 2, rw), 18) for x, y in axles]
     hubs = [g.cylinder(0.45 * rw, (x, y, rw), (x, y + math.copysign(ww / 2 + 0.001, y), rw), 12) for x, y in axles]
     visual = g.union([body, cabin_cut, *lights, *wheels, *hubs])
-    return g.finish(visual, [body.convex_hull, cabin.convex_hull, *[wh.convex_hull for wh in wheels]])
+    return g.finish(visual, [g.hull(body.vertices), g.hull(cabin.vertices), *[g.hull(wh.vertices) for wh in wheels]])
 
 
 def _seams(points: np.ndarray, radius: float, depth: float, width: float) -> np.ndarray:
@@ -87,11 +92,11 @@ def build_ball(p: dict[str, float]) -> Built:
     """Toy ball of radius_m with grooved seams along three great circles, and a small flat
     patch where it rests (a ball on a table is slightly squashed there). One hull."""
     R = p["radius_m"]
-    sphere = trimesh.creation.icosphere(subdivisions=4)
+    sphere = g.sphere(4)
     v = _seams(sphere.vertices, R, 0.04 * R, 0.05)
     ball = g.rotated(trimesh.Trimesh(v, sphere.faces), math.radians(30), (1, 1, 0))  # seams off the axes
     visual = g.cut_below(ball, -0.985 * R)
-    return g.finish(visual, [visual.convex_hull])
+    return g.finish(visual, [g.hull(visual.vertices)])
 
 
 _DUCK = (  # (centre, radii) as fractions of the length; body, head, beak, tail, wings, eyes
