@@ -171,3 +171,37 @@ def test_edges_and_corners_are_not_asked_on_a_room_floor():
     floor = replace(SCENE, table_surface="floor", cache={})
     assert PREDICATES["at_corner"](SCENE, BOTTLE) is True
     assert PREDICATES["at_corner"](floor, BOTTLE) is None and PREDICATES["at_edge"](floor, BOTTLE) is None
+
+
+def _covered_brute_force(tris: np.ndarray, width: int, height: int) -> int:
+    cols, rows = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    covered = np.zeros((height, width), dtype=bool)
+    for a, b, c in tris:
+        sides = [(q[0] - p[0]) * (rows - p[1]) - (q[1] - p[1]) * (cols - p[0]) for p, q in ((a, b), (b, c), (c, a))]
+        covered |= np.all([s >= 0 for s in sides], axis=0) | np.all([s <= 0 for s in sides], axis=0)
+    return int(covered.sum())
+
+
+def test_covered_pixels_counts_overlaps_once():
+    from refspatial.relations.geometry import covered_pixels
+
+    # Two 10x10 squares overlapping in a 6x6 corner, each as two triangles of either winding.
+    sq = np.array([[2, 2], [12, 2], [12, 12], [2, 12]], dtype=float)
+    other = sq + 4
+    tris = np.array([sq[[0, 1, 2]], sq[[0, 2, 3]], other[[0, 1, 2]], other[[0, 2, 3]]])
+    assert covered_pixels(tris, 20, 20) == 100 + 100 - 36
+    # A closed surface's silhouette: the front faces alone cover it.
+    assert covered_pixels(np.concatenate([tris, tris[:, ::-1]]), 20, 20) == 164
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(*[st.floats(-5, 45, allow_nan=False)] * 6), min_size=1, max_size=12))
+def test_covered_pixels_is_the_union_of_pixel_centres_inside(coords):
+    from refspatial.relations.geometry import covered_pixels
+
+    tris = np.array(coords, dtype=float).reshape(-1, 3, 2)
+    # Both windings given, as a closed mesh gives them; degenerate ones cover nothing.
+    both = np.concatenate([tris, tris[:, ::-1]])
+    (ux, uy), (vx, vy) = (tris[:, 1] - tris[:, 0]).T, (tris[:, 2] - tris[:, 0]).T
+    area = np.abs(ux * vy - uy * vx)
+    assert covered_pixels(both, 40, 30) == _covered_brute_force(tris[area > 1e-9], 40, 30)

@@ -13,12 +13,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
-from .geometry import gap_between, overlap_share, project
+from .geometry import covered_pixels, gap_between, overlap_share, project
 from .masks import BOXES_KEY, object_boxes, object_pixels
 
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
@@ -167,17 +166,8 @@ def _silhouette_px(verts_world: np.ndarray, faces: np.ndarray, view: View) -> in
     uv, z = project(verts_world, view.K, view.T_world_cam)
     if np.any(z <= 0.01):
         return int(view.seg.size)  # crosses the camera plane: cannot be occluded meaningfully
-    # Draw on a canvas just covering the silhouette's box within the image (a whole frame per
-    # object cost more than every predicate together); the count is the same.
     h, w = view.seg.shape
-    c0, r0 = np.clip(np.floor(uv.min(0)).astype(int) - 1, 0, [w, h])
-    c1, r1 = np.clip(np.ceil(uv.max(0)).astype(int) + 2, 0, [w, h])
-    if c1 <= c0 or r1 <= r0:
-        return 0
-    canvas = np.zeros((r1 - r0, c1 - c0), dtype=np.uint8)
-    tris = np.round((uv[faces] - [c0, r0]) * 4).astype(np.int32)  # 2 fractional bits for sub-pixel accuracy
-    cv2.fillPoly(canvas, list(tris), 1, lineType=cv2.LINE_8, shift=2)
-    return int(canvas.sum())
+    return covered_pixels(uv[faces], w, h)
 
 
 def _with_supports(objects: list[ObjectFacts], fixed: dict[int, float], table_size: np.ndarray) -> list[ObjectFacts]:

@@ -87,3 +87,51 @@ def project(points_world: np.ndarray, K: np.ndarray, T_world_cam: np.ndarray) ->
     z = p_cam[:, 2]
     uv = (p_cam @ K.T)[:, :2] / np.where(np.abs(z) < 1e-9, 1e-9, z)[:, None]
     return uv, z
+
+
+def covered_pixels(tris: np.ndarray, width: int, height: int) -> int:
+    """Pixels of a width x height image whose centre lies in at least one of the (F, 3, 2) pixel-
+    coordinate triangles: the union, counted once, with the rasteriser's own centre-sampling rule.
+
+    For the silhouette of a closed mesh the triangles of one winding suffice (front faces, or
+    back faces, each tile it), so only those with positive signed area are drawn. (cv2.fillPoly
+    cannot stand in: it fills many polygons with a parity rule, so overlaps cancel.) Each
+    triangle is cut into one span of pixels per row it covers; spans are summed as +1/-1 marks
+    along their rows, and a pixel is covered where the running sum is positive.
+    """
+    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    tris = tris[area > 1e-12]
+    # Rows whose centre (row + 0.5) lies within each triangle's height, clipped to the image.
+    r0 = np.clip(np.ceil(tris[..., 1].min(1) - 0.5), 0, height).astype(np.int64)
+    r1 = np.clip(np.floor(tris[..., 1].max(1) - 0.5) + 1, 0, height).astype(np.int64)
+    n = np.maximum(r1 - r0, 0)
+    if n.sum() == 0:
+        return 0
+    owner = np.repeat(np.arange(len(tris)), n)
+    rows = r0[owner] + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    y = rows + 0.5
+    t = tris[owner]
+    lo = np.full(len(rows), -np.inf)
+    hi = np.full(len(rows), np.inf)
+    ok = np.ones(len(rows), dtype=bool)
+    for k in range(3):  # inside: left of (or on) every edge p -> q of a positively wound triangle
+        p, q = t[:, k], t[:, (k + 1) % 3]
+        dx, dy = q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = p[:, 0] + dx * (y - p[:, 1]) / dy  # where the edge's line crosses this row
+        hi = np.where(dy > 0, np.minimum(hi, x), hi)
+        lo = np.where(dy < 0, np.maximum(lo, x), lo)
+        ok &= (dy != 0) | (dx * (y - p[:, 1]) >= 0)
+    first = np.maximum(np.ceil(lo - 0.5), 0)
+    last = np.minimum(np.floor(hi - 0.5), width - 1)
+    ok &= last >= first
+    rows, first, last = rows[ok], first[ok].astype(np.int64), last[ok].astype(np.int64)
+    if len(rows) == 0:
+        return 0
+    top, left = rows.min(), first.min()  # marks on the box the spans cover, not the whole image
+    rows, first, last = rows - top, first - left, last - left
+    h, stride = int(rows.max()) + 1, int(last.max()) + 2
+    marks = np.bincount(rows * stride + first, minlength=h * stride) - \
+        np.bincount(rows * stride + last + 1, minlength=h * stride)
+    return int(np.count_nonzero(np.cumsum(marks.reshape(h, stride), axis=1)))
