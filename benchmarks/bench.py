@@ -1,14 +1,20 @@
 """End-to-end throughput against bare MuJoCo rendering of the same views.
 
-    python benchmarks/bench.py [--scenes 20] [--recipe tabletop] [--workers 1]
+    python benchmarks/bench.py [--scenes 20] [--recipe tabletop] [--workers K] [--scaling-scenes N]
 
 1. End to end: the real shard code (compose, settle, frame, render, relations,
-   questions, MCAP write) in this process, one core, into a temporary folder.
+   questions, MCAP write) in this process, pinned to one core, into a temporary folder.
 2. Bare render: for the same scenes, only what any MuJoCo renderer must do for a
    new scene (compile the model, upload it to the GL context, draw RGB, depth and
-   segmentation of every view) at the same resolution and quality settings.
-3. Optionally the whole run again with K worker processes (scaling).
+   segmentation of every view) at the same resolution and quality settings, on the
+   same core.
+3. Optionally N scenes with K worker processes on all cores (scaling).
 The ratio of (1) to (2) says how close the pipeline runs to the renderer's limit.
+
+Both (1) and (2) run on one core with Mesa's rasteriser single-threaded, as every worker of
+`refspatial generate` runs: "per core" then means what it says (unpinned, llvmpipe would
+spread one process's rendering over every core). Both start warm: one scene outside the
+measured set is made first, so GL start-up and first-call costs are not counted in either.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ import tracemalloc
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ["LP_NUM_THREADS"] = "1"  # as in every worker process; read when the first GL context is made
 
 import refspatial  # noqa: E402,F401
 from refspatial.assets import load_catalogue  # noqa: E402
@@ -75,18 +82,23 @@ def main() -> None:
     parser.add_argument("--scenes", type=int, default=20)
     parser.add_argument("--recipe", default="tabletop")
     parser.add_argument("--workers", type=int, default=0, help="also time a run with this many processes")
+    parser.add_argument("--scaling-scenes", type=int, default=0,
+                        help="scenes for the run with --workers (default: 24 per worker, so start-up does not dominate)")
     args = parser.parse_args()
+    all_cores = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(all_cores)})
     recipe, catalogue = load_recipe(args.recipe), load_catalogue()
     cam = recipe["camera"]
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"python {platform.python_version()}, MUJOCO_GL={os.environ['MUJOCO_GL']}")
     print(f"recipe {recipe.name}: {cam['width']}x{cam['height']}, {cam['views']} view(s)/scene, "
           f"{recipe['questions']['per_view']} QA/view wanted, {args.scenes} scenes")
+    generate_scene(recipe, catalogue, scene_seed(1, 0))  # warm-up, outside the measured seeds
     with tempfile.TemporaryDirectory() as tmp:
         e2e_s, summary = end_to_end(recipe, catalogue, args.scenes, Path(tmp))
         size = (Path(tmp) / summary["file"]).stat().st_size
     records, qa = summary["records"], summary["qa"]
-    print(f"\nend to end (1 process): {e2e_s:.2f} s, {records} records, {qa} QA, "
+    print(f"\nend to end (1 process, 1 core): {e2e_s:.2f} s, {records} records, {qa} QA, "
           f"{len(summary['skipped'])} scenes rejected")
     print(f"  records/s {records / e2e_s:.2f}   QA/s {qa / e2e_s:.1f}   QA/record {qa / max(records, 1):.1f}   "
           f"shard bytes/record {size / max(records, 1) / 1e6:.2f} MB")
@@ -99,17 +111,20 @@ def main() -> None:
     print("\npeak memory allocated per stage (tracemalloc, first 4 scenes; GL and MuJoCo C memory not included):")
     print("  " + "   ".join(f"{stage} {peaks.get(stage, 0) / 2**20:.1f} MiB" for stage in STAGES))
     bare_s, views = bare_render(recipe, catalogue, args.scenes)
-    print(f"\nbare MuJoCo render of the same {views} views (model compile, MjrContext, colour pass and "
+    print(f"\nbare MuJoCo render of the same {views} views on the same core (model compile, MjrContext, colour pass and "
           f"depth+segmentation pass, GL context reused, as in the pipeline): {bare_s:.2f} s, "
           f"{views / bare_s:.2f} views/s")
     print(f"ratio end-to-end / bare render: {(records / e2e_s) / (views / bare_s):.2f}")
     if args.workers > 1:
+        os.sched_setaffinity(0, all_cores)  # the workers inherit it
+        n = args.scaling_scenes or 24 * args.workers
         with tempfile.TemporaryDirectory() as tmp:
             start = time.perf_counter()
-            m = generate(Path(tmp), recipe, catalogue, args.scenes, 0, args.workers, scenes_per_shard=max(1, args.scenes // (2 * args.workers)))
+            m = generate(Path(tmp), recipe, catalogue, n, 0, args.workers, scenes_per_shard=max(1, n // (2 * args.workers)))
             wall = time.perf_counter() - start
-        print(f"\n{args.workers} worker processes: {wall:.2f} s, {m['records'] / wall:.2f} records/s, "
-              f"{m['qa'] / wall:.1f} QA/s (speed-up {(m['records'] / wall) / (records / e2e_s):.2f}x)")
+        print(f"\n{args.workers} worker processes on {len(all_cores)} cores, {n} scenes (start-up included): "
+              f"{wall:.2f} s, {m['records'] / wall:.2f} records/s, {m['qa'] / wall:.1f} QA/s "
+              f"(speed-up {(m['records'] / wall) / (records / e2e_s):.2f}x over one core)")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"\npeak RSS of this process: {peak:.0f} MB")
     sys.stdout.flush()

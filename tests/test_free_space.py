@@ -98,3 +98,21 @@ def test_no_answer_when_the_region_is_too_small(views):
     a = v.askable()[0]
     tight = (Constraint("sector", (a.object_id,), "left"), Constraint("sector", (a.object_id,), "right"))
     assert solve(v, tight) is None  # opposite sectors of one anchor share no area
+
+
+def test_sector_box_bounds_the_sector_tightly():
+    from refspatial.relations.free_space import HALF_SECTOR_DEG, _sector_box
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        centre, r = rng.uniform(-1, 1, 2), rng.uniform(0.05, 1)
+        a = rng.uniform(-np.pi, np.pi)
+        axis = np.array([np.cos(a), np.sin(a)])
+        box = _sector_box(centre, axis, r)
+        # Points filling the sector (polar samples, arc included) all lie in the box ...
+        ang = a + np.radians(HALF_SECTOR_DEG) * np.linspace(-1, 1, 181)
+        rad = np.linspace(0, r, 21)
+        pts = centre + (rad[:, None, None] * np.stack([np.cos(ang), np.sin(ang)], -1)[None]).reshape(-1, 2)
+        assert np.all(pts >= box[0] - 1e-12) and np.all(pts <= box[1] + 1e-12)
+        # ... and reach its every side (within the sampling step).
+        assert np.allclose(pts.min(0), box[0], atol=r * 1e-3) and np.allclose(pts.max(0), box[1], atol=r * 1e-3)

@@ -12,6 +12,7 @@ others are not asked about.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -51,9 +52,12 @@ class ObjectFacts:
     is_support: bool = False  # its top face may hold other objects (plate, book, box...)
     pose_world: np.ndarray | None = None  # 4x4 world <- object
 
-    @property
+    @cached_property
     def center_world_m(self) -> np.ndarray:
-        return self.aabb_world_m.mean(axis=0)
+        # Asked ~10^4 times per view; computed once, read-only since it is shared.
+        centre = 0.5 * (self.aabb_world_m[0] + self.aabb_world_m[1])
+        centre.flags.writeable = False
+        return centre
 
     @property
     def footprint_m(self) -> np.ndarray:

@@ -85,9 +85,11 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     if platform is None:
         return None
     support, polygon, z = platform
-    cells = _grid(v, constraints, polygon)
     raster = _raster(v, support, polygon, z)
-    keep = _in_regions(v, constraints, cells) & raster.at(cells)
+    first, last = _grid(v, constraints, polygon)
+    cells = _cell_centres(first, last - first + 1)
+    keep = raster.block(first, last).ravel()  # free cells; then those in every region
+    keep[keep] = _in_regions(v, constraints, cells[keep])
     area = float(keep.sum() * CELL_M**2)
     if not any(c.kind == "offset" for c in constraints) and area <= MIN_FREE_AREA_M2:
         return None
@@ -145,25 +147,46 @@ def _reach(a: ObjectFacts, axis: np.ndarray) -> tuple[float, float]:
     return half, max(diagonal, MIN_RADIUS_M)
 
 
-def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> np.ndarray:
-    """Centres of the 1 cm lattice cells (fixed to the world origin, so that every question on a
-    platform shares one obstacle raster) inside the platform's box and the region's box."""
+def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(first, last) (x, y) indices of the 1 cm lattice cells (fixed to the world origin, so that
+    every question on a platform shares one obstacle raster) inside the platform's box and the
+    region's box."""
     lo, hi = polygon.min(0), polygon.max(0)
     for c in constraints:  # shrink the grid to the region's box when one is known
         a = v.objects[c.anchors[0]]
-        if c.kind in ("sector", "offset"):
+        if c.kind == "sector":
+            axis = direction_axis(v, c.direction)
+            half, radius = _reach(a, axis)
+            box = _sector_box(a.center_world_m[:2], axis, half + radius)
+            lo, hi = np.maximum(lo, box[0]), np.minimum(hi, box[1])
+        elif c.kind == "offset":
             half, radius = _reach(a, direction_axis(v, c.direction))
             centre, r = a.center_world_m[:2], half + radius + (c.offset_m or 0.0)
             lo, hi = np.maximum(lo, centre - r), np.minimum(hi, centre + r)
         elif c.kind == "between":  # within the hull of the anchors' footprints: a room's floor is metres wide
             corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
             lo, hi = np.maximum(lo, corners.min(0)), np.minimum(hi, corners.max(0))
-    if np.any(hi <= lo):
-        return np.zeros((0, 2))
     first, last = np.ceil(lo / CELL_M - 0.5).astype(int), np.floor(hi / CELL_M - 0.5).astype(int)
-    xs = (np.arange(first[0], last[0] + 1) + 0.5) * CELL_M
-    ys = (np.arange(first[1], last[1] + 1) + 0.5) * CELL_M
+    return first, np.maximum(last, first - 1)  # an empty box has last = first - 1
+
+
+def _cell_centres(first: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Centres of counts = (nx, ny) lattice cells from cell index ``first``, row by row (y)."""
+    xs = (np.arange(first[0], first[0] + counts[0]) + 0.5) * CELL_M
+    ys = (np.arange(first[1], first[1] + counts[1]) + 0.5) * CELL_M
     return np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+
+
+def _sector_box(centre: np.ndarray, axis: np.ndarray, r: float) -> np.ndarray:
+    """(2, 2) bounding box of the circular sector (radius r, HALF_SECTOR_DEG either side of the
+    axis) around centre: its apex, the arc's ends, and the arc's extreme points in x and y
+    where they fall inside it. A quarter of the square around the centre, so solves test
+    fewer cells."""
+    mid, half = np.arctan2(axis[1], axis[0]), np.radians(HALF_SECTOR_DEG)
+    angles = [mid - half, mid + half]
+    angles += [k * np.pi / 2 for k in range(-4, 5) if abs(k * np.pi / 2 - mid) <= half]
+    pts = np.vstack([centre, centre + r * np.column_stack([np.cos(angles), np.sin(angles)])])
+    return np.stack([pts.min(0), pts.max(0)])
 
 
 def _in_regions(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
@@ -218,22 +241,22 @@ class _Raster:
         self.first = np.floor(polygon.min(0) / CELL_M).astype(int)
         last = np.floor(polygon.max(0) / CELL_M).astype(int)
         shape = (last - self.first + 1)[::-1]  # rows follow y, columns x
-        self.free = inside_convex(self._centres(self.first, shape), polygon, grow=-EDGE_MARGIN_M).reshape(shape)
+        self.free = inside_convex(_cell_centres(self.first, shape[::-1]), polygon, grow=-EDGE_MARGIN_M).reshape(shape)
         for o in _obstacles(v, support, z):
             a = np.maximum(np.floor((o.footprint_world.min(0) - CLEARANCE_M) / CELL_M).astype(int), self.first)
             b = np.minimum(np.floor((o.footprint_world.max(0) + CLEARANCE_M) / CELL_M).astype(int), last)
             if np.any(b < a):
                 continue
             block = (b - a + 1)[::-1]
-            hit = inside_convex(self._centres(a, block), o.footprint_world, grow=CLEARANCE_M).reshape(block)
+            hit = inside_convex(_cell_centres(a, block[::-1]), o.footprint_world, grow=CLEARANCE_M).reshape(block)
             window = self.free[a[1] - self.first[1]:b[1] - self.first[1] + 1, a[0] - self.first[0]:b[0] - self.first[0] + 1]
             window &= ~hit
 
-    @staticmethod
-    def _centres(first: np.ndarray, shape: np.ndarray) -> np.ndarray:
-        xs = (np.arange(first[0], first[0] + shape[1]) + 0.5) * CELL_M
-        ys = (np.arange(first[1], first[1] + shape[0]) + 0.5) * CELL_M
-        return np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    def block(self, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+        """A copy of the free flags of cells first..last (inclusive (x, y) indices inside the
+        raster), rows following y."""
+        a, b = first - self.first, last - self.first + 1
+        return self.free[a[1]:b[1], a[0]:b[0]].copy()
 
     def at(self, points: np.ndarray) -> np.ndarray:
         """Whether the cell holding each point is free (False off the platform's box)."""

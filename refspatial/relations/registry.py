@@ -37,16 +37,24 @@ class Predicate:
     symmetric: bool = False  # p(a, b) == p(b, a): listed once per unordered pair
 
     def __call__(self, view: ViewFacts, *objects: ObjectFacts, **options: Any) -> Any:
+        if options:
+            self._check(objects)
+            return None if len({o.object_id for o in objects}) != len(objects) else self.fn(view, *objects, **options)
+        # The memo is looked up first: question search asks ~10^5 verdicts per scene, most of them again.
+        key = (self.name, *[o.object_id for o in objects])
+        try:
+            return view.cache[key]
+        except KeyError:
+            pass
+        self._check(objects)
+        # An object is never related to itself.
+        value = None if len(set(key[1:])) != len(objects) else self.fn(view, *objects)
+        view.cache[key] = value
+        return value
+
+    def _check(self, objects: tuple[ObjectFacts, ...]) -> None:
         if len(objects) != self.arity:
             raise TypeError(f"{self.name} relates {self.arity} objects, got {len(objects)}")
-        if len({o.object_id for o in objects}) != len(objects):
-            return None  # an object is never related to itself
-        if options:
-            return self.fn(view, *objects, **options)
-        key = (self.name, *(o.object_id for o in objects))
-        if key not in view.cache:
-            view.cache[key] = self.fn(view, *objects)
-        return view.cache[key]
 
 
 PREDICATES: dict[str, Predicate] = {}
