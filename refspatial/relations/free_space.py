@@ -208,9 +208,11 @@ def _sector(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
 
 
 def _between(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
-    corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
-    hull = corners[ConvexHull(corners).vertices]
-    return inside_convex(points, hull)
+    key = ("between_hull", *sorted(c.anchors))
+    if key not in v.cache:  # the mask and every solve with this pair ask again
+        corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
+        v.cache[key] = corners[ConvexHull(corners).vertices]
+    return inside_convex(points, v.cache[key])
 
 
 def _on_top(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:

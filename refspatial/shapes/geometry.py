@@ -91,8 +91,9 @@ def hull(points: Any) -> trimesh.Trimesh:
     a, b, c = (pts[faces[:, k]] for k in range(3))
     flip = np.einsum("ij,ij->i", np.cross(b - a, c - a), qh.equations[:, :3]) < 0  # face the outward normal
     faces[flip] = faces[flip][:, ::-1]
-    used, faces = np.unique(faces, return_inverse=True)
-    return trimesh.Trimesh(pts[used], faces.reshape(-1, 3), process=False)
+    remap = np.empty(len(pts), dtype=np.int64)  # keep only the hull's own vertices
+    remap[qh.vertices] = np.arange(len(qh.vertices))
+    return trimesh.Trimesh(pts[qh.vertices], remap[faces], process=False)
 
 
 def hull_of(*meshes: trimesh.Trimesh) -> trimesh.Trimesh:
