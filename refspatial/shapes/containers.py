@@ -80,13 +80,7 @@ def build_basket(p: dict[str, float]) -> Built:
 
 
 def _rounded_rect_points(half_x: float, half_y: float, corner: float, z: float, n: int = 5) -> np.ndarray:
-    a = np.linspace(0, math.pi / 2, n)
-    quarter = np.column_stack([np.cos(a), np.sin(a)]) * corner
-    pts = [
-        quarter * (sx, sy) + (sx * (half_x - corner), sy * (half_y - corner))
-        for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))
-    ]
-    flat = np.vstack(pts)
+    flat = g.rounded_rect(half_x, half_y, corner, n)
     return np.column_stack([flat, np.full(len(flat), z)])
 
 

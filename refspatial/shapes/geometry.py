@@ -137,15 +137,18 @@ def rect(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)], dtype=float)
 
 
-def rounded_slab(half_x: float, half_y: float, z0: float, z1: float, corner: float, n: int = 6) -> trimesh.Trimesh:
-    """Convex slab with vertical edges rounded by `corner` (phones, boards, trays)."""
+def rounded_rect(half_x: float, half_y: float, corner: float, n: int = 6) -> np.ndarray:
+    """(4n, 2) outline of a rectangle centred on the origin with corners rounded by `corner`,
+    n points per quarter circle."""
     a = np.linspace(0, math.pi / 2, n)
     quarter = np.column_stack([np.cos(a), np.sin(a)]) * corner
-    ring = [
-        quarter * (sx, sy) + (sx * (half_x - corner), sy * (half_y - corner))
-        for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))
-    ]
-    flat = np.vstack(ring)
+    return np.vstack([quarter * (sx, sy) + (sx * (half_x - corner), sy * (half_y - corner))
+                      for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))])
+
+
+def rounded_slab(half_x: float, half_y: float, z0: float, z1: float, corner: float, n: int = 6) -> trimesh.Trimesh:
+    """Convex slab with vertical edges rounded by `corner` (phones, boards, trays)."""
+    flat = rounded_rect(half_x, half_y, corner, n)
     return hull(np.vstack([np.column_stack([flat, np.full(len(flat), z)]) for z in (z0, z1)]))
 
 
