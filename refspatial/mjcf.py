@@ -3,7 +3,8 @@
 Each object is one body named ``obj<ID>`` carrying a visual mesh geom (group 0,
 no collision) and its convex collision parts (group 3, invisible). Physics needs
 free joints and collision parts; rendering needs neither, so it asks for a
-static model, which compiles faster.
+static model, which compiles faster. Settling needs no visual meshes either
+(massless, never colliding): leaving them out halves its compile time.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ class SpecOptions:
     mesh_dir: Path | None = None  # write meshes as STL here and reference them by file
     offscreen: tuple[int, int] = (960, 540)  # framebuffer width, height
     timestep_s: float = 0.002
+    visual: bool = True  # the visual mesh geoms (settling alone does without them)
 
 
 def body_name(object_id: int) -> str:
@@ -180,12 +182,13 @@ def _add_object(spec: mujoco.MjSpec, obj, opts: SpecOptions) -> None:
     name = body_name(obj.object_id)
     body = spec.worldbody.add_body(name=name, pos=obj.pose.pos_world_m, quat=obj.pose.quat_wxyz)
     asset = obj.asset
-    _mesh(spec, f"{name}_visual", asset.visual.vertices_m, asset.visual.faces, opts)
-    body.add_geom(
-        name=f"{name}_visual", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_visual",
-        rgba=list(asset.rgba), material=f"mat_{asset.material}", group=VISUAL_GROUP,
-        contype=0, conaffinity=0, density=0.0,
-    )
+    if opts.visual:
+        _mesh(spec, f"{name}_visual", asset.visual.vertices_m, asset.visual.faces, opts)
+        body.add_geom(
+            name=f"{name}_visual", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_visual",
+            rgba=list(asset.rgba), material=f"mat_{asset.material}", group=VISUAL_GROUP,
+            contype=0, conaffinity=0, density=0.0,
+        )
     if not opts.dynamic:
         return
     body.add_freejoint(name=f"{name}_free")

@@ -29,7 +29,7 @@ def settle(scene: Scene, materials: dict[str, MaterialSpec], recipe: Recipe) -> 
     import mujoco
 
     spec_p = recipe["physics"]
-    spec = build_spec(scene, materials, SpecOptions(dynamic=True, timestep_s=spec_p["timestep_s"]))
+    spec = build_spec(scene, materials, SpecOptions(dynamic=True, timestep_s=spec_p["timestep_s"], visual=False))
     try:
         model = spec.compile()
     except ValueError as exc:
