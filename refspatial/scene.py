@@ -9,6 +9,7 @@ looks along -z, +y is up in the image, +x is right.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -24,6 +25,17 @@ class MeshData:
     def bounds_m(self) -> np.ndarray:
         """(2, 3) array: min corner, max corner."""
         return np.stack([self.vertices_m.min(axis=0), self.vertices_m.max(axis=0)])
+
+    @cached_property
+    def volume_m3(self) -> float:
+        """Enclosed volume (every view of every scene asks it of each object's mesh)."""
+        return abs(signed_volume(self.vertices_m, self.faces))
+
+
+def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Volume enclosed by a closed mesh (divergence theorem): negative when its faces point inward."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
 
 
 @dataclass(frozen=True)

@@ -146,7 +146,7 @@ def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px
         obj.object_id, asset.category, asset.name, asset.color, aabb, float(centre @ right),
         float(centre @ forward), depth, px, status,
         footprint_world=_footprint(asset, T), front_world=T[:3, :3] @ np.asarray(asset.front_local),
-        front_side=asset.front_side, volume_m3=mesh_volume(asset.visual.vertices_m, asset.visual.faces),
+        front_side=asset.front_side, volume_m3=asset.visual.volume_m3,
         centroid_px=(float(cols.mean() + 0.5), float(rows.mean() + 0.5)) if px else None,
         visible_share=share, cavity=asset.cavity, is_support=asset.support, pose_world=T,
     )
@@ -157,12 +157,6 @@ def _footprint(asset, T: np.ndarray) -> np.ndarray:
     (x0, y0, _), (x1, y1, _) = asset.visual.bounds_m
     local = np.array([[x0, y0, 0], [x1, y0, 0], [x1, y1, 0], [x0, y1, 0]])
     return (local @ T[:3, :3].T + T[:3, 3])[:, :2]
-
-
-def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
-    """Enclosed volume of a closed, outward-wound mesh (divergence theorem)."""
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    return float(abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0)
 
 
 def _silhouette_px(verts_world: np.ndarray, faces: np.ndarray, view: View) -> int:

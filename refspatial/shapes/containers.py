@@ -18,8 +18,8 @@ def build_box(p: dict[str, float]) -> Built:
     overhangs the base a little so it reads as a box, not a brick."""
     L, W, H = p["length_m"], p["width_m"], p["height_m"]
     e = 0.03 * min(L, W)
-    base = trimesh.creation.box(bounds=[(e - L / 2, e - W / 2, 0), (L / 2 - e, W / 2 - e, 0.8 * H)])
-    visual = g.union([base, trimesh.creation.box(bounds=[(-L / 2, -W / 2, 0.75 * H), (L / 2, W / 2, H)])])
+    base = g.box((e - L / 2, e - W / 2, 0), (L / 2 - e, W / 2 - e, 0.8 * H))
+    visual = g.union([base, g.box((-L / 2, -W / 2, 0.75 * H), (L / 2, W / 2, H))])
     return g.finish(visual, [g.hull(visual.vertices)])
 
 

@@ -21,7 +21,7 @@ def build_apple(p: dict[str, float]) -> Built:
     r, z = R * np.sin(phi), R * q * (1 - np.cos(phi))
     z += np.where(phi < math.pi / 2, 0.2, -0.3) * R * q * np.exp(-((r / (0.35 * R)) ** 2))  # pole dimples
     top = z[-1]
-    stalk = trimesh.creation.cylinder(radius=0.06 * R, segment=[(0, 0, top - 0.1 * R), (0, 0, top + stem)], sections=8)
+    stalk = g.cylinder(0.06 * R, (0, 0, top - 0.1 * R), (0, 0, top + stem), 8)
     visual = g.union([g.revolve(np.column_stack([r, z])), stalk])
     return g.finish(visual, [g.hull(visual.vertices)])
 

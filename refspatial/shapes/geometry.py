@@ -16,6 +16,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
+from ..scene import signed_volume
 from .registry import Built
 
 SEGMENTS = 32  # around revolved shapes: smooth at 960x540, cheap for a CPU rasteriser
@@ -23,15 +24,44 @@ WALL_PARTS = 12  # convex wedges around a rim; a multiple of 4 keeps the +-x/+-y
 X, Y, Z = np.eye(3)
 
 
+# Builders make hundreds of small meshes per scene. trimesh's constructors and transforms
+# process, validate and re-cache every one (a cylinder cost 1 ms); the helpers below build
+# vertex and face arrays directly and wrap them unprocessed.
+def _mesh(vertices: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
+    return trimesh.Trimesh(vertices, faces, process=False)
+
+
 def outward(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    if mesh.volume < 0:
-        mesh.invert()
+    """The mesh with its faces turned outward (a closed mesh with negative volume is inside out)."""
+    if signed_volume(mesh.vertices, mesh.faces) < 0:
+        return _mesh(mesh.vertices, np.ascontiguousarray(mesh.faces[:, ::-1]))
     return mesh
 
 
 def revolve(profile: Any, sections: int = SEGMENTS) -> trimesh.Trimesh:
-    """Revolve an (r, z) profile about +z; both ends on the axis give a closed solid."""
-    return outward(trimesh.creation.revolve(np.asarray(profile, dtype=float), sections=sections))
+    """Revolve an (r, z) profile about +z; both ends on the axis give a closed solid.
+
+    Every profile point becomes a ring of `sections` vertices, and each band between two
+    rings two triangles per section; a ring on the axis collapses onto one pole vertex, and
+    the triangles that collapse with it are dropped."""
+    rz = np.asarray(profile, dtype=float)
+    rz = rz[np.r_[True, np.any(np.diff(rz, axis=0) != 0, axis=1)]]  # a repeated point adds an empty band
+    theta = np.linspace(0, 2 * math.pi, sections, endpoint=False)
+    grid = np.empty((len(rz), sections, 3))
+    grid[..., 0] = rz[:, :1] * np.cos(theta)
+    grid[..., 1] = rz[:, :1] * np.sin(theta)
+    grid[..., 2] = rz[:, 1:]
+    index = np.arange(grid.shape[0] * sections).reshape(-1, sections)
+    pole = np.abs(rz[:, 0]) < 1e-12
+    index[pole] = index[pole][:, :1]
+    a, b = index[:-1], index[1:]
+    d, c = np.roll(a, -1, axis=1), np.roll(b, -1, axis=1)
+    faces = np.vstack([np.stack([a, c, d], -1).reshape(-1, 3), np.stack([a, b, c], -1).reshape(-1, 3)])
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])]
+    used = np.unique(faces)
+    remap = np.empty(index.size, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return outward(_mesh(grid.reshape(-1, 3)[used], remap[faces]))
 
 
 def arc(cr: float, cz: float, radius: float, a0: float, a1: float, n: int = 7) -> list[tuple[float, float]]:
@@ -76,7 +106,7 @@ def _manifold(mesh: trimesh.Trimesh) -> manifold3d.Manifold:
 
 def _trimesh(solid: manifold3d.Manifold) -> trimesh.Trimesh:
     mesh = solid.to_mesh()
-    return trimesh.Trimesh(mesh.vert_properties.astype(np.float64), mesh.tri_verts.astype(np.int64), process=False)
+    return _mesh(mesh.vert_properties.astype(np.float64), mesh.tri_verts.astype(np.int64))
 
 
 def hull(points: Any) -> trimesh.Trimesh:
@@ -93,7 +123,7 @@ def hull(points: Any) -> trimesh.Trimesh:
     faces[flip] = faces[flip][:, ::-1]
     remap = np.empty(len(pts), dtype=np.int64)  # keep only the hull's own vertices
     remap[qh.vertices] = np.arange(len(qh.vertices))
-    return trimesh.Trimesh(pts[qh.vertices], remap[faces], process=False)
+    return _mesh(pts[qh.vertices], remap[faces])
 
 
 def hull_of(*meshes: trimesh.Trimesh) -> trimesh.Trimesh:
@@ -101,18 +131,33 @@ def hull_of(*meshes: trimesh.Trimesh) -> trimesh.Trimesh:
 
 
 def box(lo: Sequence[float], hi: Sequence[float]) -> trimesh.Trimesh:
-    return trimesh.creation.box(bounds=[lo, hi])
+    """Axis-aligned box between two opposite corners (in either order)."""
+    a, b = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    vertices, faces = _unit_box()
+    return _mesh(lo + vertices * (hi - lo), faces.copy())
+
+
+@functools.lru_cache(maxsize=1)
+def _unit_box() -> tuple[np.ndarray, np.ndarray]:
+    unit = trimesh.creation.box()  # centred on the origin
+    return np.array(unit.vertices) + 0.5, np.array(unit.faces)
 
 
 def cylinder(radius: float, p0: Sequence[float], p1: Sequence[float], sections: int = 16) -> trimesh.Trimesh:
     """A round rod from p0 to p1."""
-    return trimesh.creation.cylinder(radius=radius, segment=[p0, p1], sections=sections)
+    p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+    axis = p1 - p0
+    half = float(np.linalg.norm(axis)) / 2
+    rod = revolve([(0.0, -half), (radius, -half), (radius, half), (0.0, half)], sections)
+    frame = trimesh.geometry.align_vectors((0.0, 0.0, 1.0), axis)
+    return _mesh(rod.vertices @ frame[:3, :3].T + (p0 + p1) / 2, rod.faces)
 
 
 def sphere(subdivisions: int, radius: float = 1.0) -> trimesh.Trimesh:
     """Icosphere about the origin (subdividing is the expensive part, so it happens once)."""
     vertices, faces = _unit_sphere(subdivisions)
-    return trimesh.Trimesh(vertices * radius, faces.copy(), process=False)
+    return _mesh(vertices * radius, faces.copy())
 
 
 @functools.lru_cache(maxsize=None)
@@ -123,7 +168,7 @@ def _unit_sphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
 
 def ellipsoid(centre: Sequence[float], radii: Sequence[float], subdivisions: int = 2) -> trimesh.Trimesh:
     vertices, faces = _unit_sphere(subdivisions)
-    return trimesh.Trimesh(vertices * np.asarray(radii, float) + np.asarray(centre, float), faces.copy(), process=False)
+    return _mesh(vertices * np.asarray(radii, float) + np.asarray(centre, float), faces.copy())
 
 
 def circle(cx: float, cy: float, radius: float, n: int = 16) -> np.ndarray:
@@ -183,7 +228,8 @@ def to_manifold(mesh: trimesh.Trimesh) -> manifold3d.Manifold:
 
 def from_manifold(solid: manifold3d.Manifold) -> trimesh.Trimesh:
     mesh = solid.to_mesh64()
-    return outward(trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts)))
+    # Copies: the arrays manifold hands out are read-only views of its own memory.
+    return outward(_mesh(np.array(mesh.vert_properties[:, :3]), np.array(mesh.tri_verts, dtype=np.int64)))
 
 
 def cut_below(mesh: trimesh.Trimesh, z: float) -> trimesh.Trimesh:
@@ -210,15 +256,14 @@ def piece_hulls(mesh: trimesh.Trimesh, axis: int, cuts: Sequence[float]) -> list
 def rotated(
     mesh: trimesh.Trimesh, angle: float, axis: Sequence[float], point: Sequence[float] = (0, 0, 0)
 ) -> trimesh.Trimesh:
-    out = mesh.copy()
-    out.apply_transform(trimesh.transformations.rotation_matrix(angle, axis, point))
-    return out
+    """A copy turned by `angle` (radians, right-handed) about the line through `point` along `axis`."""
+    m = trimesh.transformations.rotation_matrix(angle, axis, point)
+    return _mesh(mesh.vertices @ m[:3, :3].T + m[:3, 3], mesh.faces.copy())
 
 
 def moved(mesh: trimesh.Trimesh, offset: Sequence[float]) -> trimesh.Trimesh:
-    out = mesh.copy()
-    out.apply_translation(offset)
-    return out
+    """A copy shifted by `offset`."""
+    return _mesh(mesh.vertices + np.asarray(offset, dtype=float), mesh.faces.copy())
 
 
 def container_parts(outer: np.ndarray, inner: np.ndarray, base_r: float, base_z: float, bands: int = 1) -> list:
@@ -314,7 +359,7 @@ def tube(rings: np.ndarray, path: np.ndarray) -> trimesh.Trimesh:
     j, last = np.arange(m), (n - 1) * m
     start = np.column_stack([np.full(m, n * m), j, (j + 1) % m])
     end = np.column_stack([np.full(m, n * m + 1), last + (j + 1) % m, last + j])
-    return outward(trimesh.Trimesh(np.vstack([rings.reshape(-1, 3), path[[0, -1]]]), np.vstack([sides, start, end])))
+    return outward(_mesh(np.vstack([rings.reshape(-1, 3), path[[0, -1]]]), np.vstack([sides, start, end])))
 
 
 def rod(path: Any, radius: float, up: Sequence[float] = (0.0, 1.0, 0.0), around: int = 10) -> trimesh.Trimesh:
@@ -326,10 +371,8 @@ def rod(path: Any, radius: float, up: Sequence[float] = (0.0, 1.0, 0.0), around:
 def finish(visual: trimesh.Trimesh, parts: list, centre: bool = True, height: float | None = None) -> Built:
     """Move into the object frame: lowest point on z=0, footprint centred on the origin (unless
     the builder already centred the main body), optionally scaled uniformly to an exact height."""
-    lo, hi = visual.bounds
+    lo, hi = visual.vertices.min(0), visual.vertices.max(0)
     shift = -np.array([(lo[0] + hi[0]) / 2 * centre, (lo[1] + hi[1]) / 2 * centre, lo[2]])
     scale = 1.0 if height is None else height / (hi[2] - lo[2])
-    for mesh in (visual, *parts):
-        mesh.apply_translation(shift)
-        mesh.apply_scale(scale)
+    visual, *parts = (_mesh((m.vertices + shift) * scale, m.faces) for m in (visual, *parts))
     return visual, parts

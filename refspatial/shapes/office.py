@@ -18,7 +18,7 @@ def build_book(p: dict[str, float]) -> Built:
     L, W, t = p["cover_length_m"], p["cover_width_m"], p["thickness_m"]
     c, inset, xs = min(max(0.1 * t, 0.0015), 0.003), 0.015 * W, W / 2 - t / 4  # cover, page inset, spine axis
     slabs = [(-W / 2, L / 2, 0, c), (-W / 2, L / 2, t - c, t), (inset - W / 2, L / 2 - inset, c / 2, t - c / 2)]
-    boxes = [trimesh.creation.box(bounds=[(x0, -y, z0), (xs, y, z1)]) for x0, y, z0, z1 in slabs]
+    boxes = [g.box((x0, -y, z0), (xs, y, z1)) for x0, y, z0, z1 in slabs]
     spine = trimesh.creation.cylinder(radius=t / 2, height=L, sections=16)
     spine.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, (1, 0, 0)))
     spine.apply_scale((0.5, 1.0, 1.0))

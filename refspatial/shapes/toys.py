@@ -29,7 +29,7 @@ def build_teddy_bear(p: dict[str, float]) -> Built:
     """Sitting teddy bear height_m tall: ellipsoid body, head, ears, muzzle, arms and
     forward-pointing legs, face on +x. Two hulls: body with limbs, head with ears and muzzle."""
     visual, parts = _teddy_unit()
-    return g.finish(visual.copy(), [part.copy() for part in parts], height=p["height_m"])
+    return g.finish(visual, list(parts), height=p["height_m"])
 
 
 @functools.lru_cache(maxsize=1)
