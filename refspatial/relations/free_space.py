@@ -87,13 +87,12 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     support, polygon, z = platform
     raster = _raster(v, support, polygon, z)
     first, last = _grid(v, constraints, polygon)
-    cells = _cell_centres(first, last - first + 1)
-    keep = raster.block(first, last).ravel()  # free cells; then those in every region
-    keep[keep] = _in_regions(v, constraints, cells[keep])
-    area = float(keep.sum() * CELL_M**2)
+    rows, cols = np.nonzero(raster.block(first, last))  # the free cells; then those in every region
+    free = (np.column_stack([cols + first[0], rows + first[1]]) + 0.5) * CELL_M
+    free = free[_in_regions(v, constraints, free)]
+    area = float(len(free) * CELL_M**2)
     if not any(c.kind == "offset" for c in constraints) and area <= MIN_FREE_AREA_M2:
         return None
-    free = cells[keep]
     visible = _visible(v, np.column_stack([free, np.full(len(free), z)]))
     if len(free) == 0 or visible.sum() < max(1, MIN_VISIBLE_SHARE * len(free)):
         return None
@@ -315,19 +314,20 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, cells: np.
         return mask
     c0, r0 = np.clip(np.floor(uv.min(0)).astype(int) - 1, 0, [v.width, v.height])
     c1, r1 = np.clip(np.ceil(uv.max(0)).astype(int) + 1, 0, [v.width, v.height])
-    rows, cols = np.mgrid[r0:r1, c0:c1]
-    rays = np.stack([cols + 0.5, rows + 0.5, np.ones_like(cols)], axis=-1).reshape(-1, 3) @ np.linalg.inv(v.K).T
-    R, t = v.T_world_cam[:3, :3], v.T_world_cam[:3, 3]
-    dirs = rays @ R.T
+    # World direction of each pixel's ray, scaled so that its camera-frame z is 1: s below is
+    # then the optical-axis depth at which it meets the plane, comparable with the depth image.
+    M, t = v.T_world_cam[:3, :3] @ np.linalg.inv(v.K), v.T_world_cam[:3, 3]
+    u, w = np.arange(c0, c1) + 0.5, np.arange(r0, r1) + 0.5
     with np.errstate(divide="ignore", invalid="ignore"):
-        s = (z - t[2]) / dirs[:, 2]  # optical-axis depth of the plane hit (rays have z = 1)
-    hit = t[:2] + dirs[:, :2] * s[:, None]
-    ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1].reshape(-1) - s) <= OCCLUSION_M)
-    idx = np.nonzero(ok)[0]
-    good = _in_regions(v, constraints, hit[idx]) & raster.at(hit[idx])
-    window = np.zeros(len(ok), dtype=bool)
-    window[idx[good]] = True
-    mask[r0:r1, c0:c1] = window.reshape(r1 - r0, c1 - c0)
+        s = (z - t[2]) / (M[2, 0] * u[None, :] + M[2, 1] * w[:, None] + M[2, 2])
+    ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1] - s) <= OCCLUSION_M)
+    rows, cols = np.nonzero(ok)
+    depth = s[rows, cols][:, None]
+    hit = t[:2] + (np.outer(u[cols], M[:2, 0]) + np.outer(w[rows], M[:2, 1]) + M[:2, 2]) * depth
+    free = raster.at(hit)  # the cheap test first: the region test runs on free pixels only
+    rows, cols, hit = rows[free], cols[free], hit[free]
+    good = _in_regions(v, constraints, hit)
+    mask[rows[good] + r0, cols[good] + c0] = True
     return mask
 
 
