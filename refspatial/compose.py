@@ -122,13 +122,21 @@ def footprint_corners(asset: Asset, x: float, y: float, yaw: float, grow_m: floa
 
 def boxes_overlap(a: np.ndarray, b: np.ndarray) -> bool:
     """Separating-axis test for two convex quads given as (4, 2) corners."""
-    for quad in (a, b):
-        edges = np.roll(quad, -1, axis=0) - quad
-        for nx, ny in np.stack([-edges[:, 1], edges[:, 0]], axis=1):
-            pa, pb = a @ (nx, ny), b @ (nx, ny)
-            if pa.max() < pb.min() or pb.max() < pa.min():
-                return False
-    return True
+    return overlaps_any(a, [b])
+
+
+def overlaps_any(quad: np.ndarray, others: list[np.ndarray]) -> bool:
+    """Whether a convex quad overlaps any of the others, all at once (placement tries up to
+    hundreds of poses against every footprint already placed)."""
+    if not others:
+        return False
+    b = np.asarray(others)  # (k, 4, 2)
+    edges = np.concatenate([np.broadcast_to(np.roll(quad, -1, axis=0) - quad, b.shape), np.roll(b, -1, axis=1) - b], axis=1)
+    normals = edges @ np.array([[0.0, 1.0], [-1.0, 0.0]])  # (k, 8, 2): each edge turned by 90 degrees
+    pa = np.einsum("pd,knd->kpn", quad, normals)
+    pb = np.einsum("kpd,knd->kpn", b, normals)
+    separated = (pa.max(axis=1) < pb.min(axis=1)) | (pb.max(axis=1) < pa.min(axis=1))
+    return bool(np.any(~separated.any(axis=1)))
 
 
 def _place(recipe: Recipe, table: Table, assets: list[Asset], n_furniture: int,
@@ -163,7 +171,7 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], n_furniture: int,
             yaw = float(rng.uniform(-np.pi, np.pi))
             quad = footprint_corners(asset, x, y, yaw, grow_m=spec["min_gap_m"] / 2)
             inside = np.all(np.abs(quad) <= np.array(table.size_m) / 2 - 0.02)
-            if level is not None and inside and not any(boxes_overlap(quad, q) for q in quads[level]):
+            if level is not None and inside and not overlaps_any(quad, quads[level]):
                 break
         else:
             continue  # left out; the scene is rejected below only if too few objects remain
@@ -210,7 +218,7 @@ def _on_top(i: int, asset: Asset, tops: list[_Top], odds: float, spec: dict, rng
         yaw = float(rng.uniform(-np.pi, np.pi))
         quad = footprint_corners(asset, x, y, yaw, grow_m=spec["min_gap_m"] / 2)  # in the piece's frame
         if inside_convex(quad, top.outline, grow=-TOP_MARGIN_M).all() and \
-                not any(boxes_overlap(quad, q) for q in top.quads):
+                not overlaps_any(quad, top.quads):
             break
     else:
         return None

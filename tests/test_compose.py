@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from matplotlib.path import Path
 
-from refspatial.compose import SceneRejected, boxes_overlap, compose, footprint_corners
+from refspatial.compose import SceneRejected, boxes_overlap, compose, footprint_corners, overlaps_any
 
 
 def test_same_seed_same_scene(tiny, catalogue):
@@ -77,6 +77,29 @@ def test_overlap_test_on_known_boxes():
     diamond = np.array([[1.6, 0.5], [2.1, 0.0], [2.6, 0.5], [2.1, 1.0]])
     assert not boxes_overlap(square, diamond)
     assert boxes_overlap(square, diamond - [0.7, 0])
+
+
+def test_overlap_test_agrees_with_polygon_clipping():
+    """Against an independent oracle: two quads overlap exactly when clipping one by the other
+    leaves some area. overlaps_any is true when any of the others overlaps."""
+    from refspatial.relations.geometry import clip_convex, polygon_area
+
+    rng = np.random.default_rng(5)
+
+    def quad():
+        (cx, cy), (hx, hy), yaw = rng.uniform(-1, 1, 2), rng.uniform(0.05, 0.6, 2), rng.uniform(-np.pi, np.pi)
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]) @ [[c, s], [-s, c]] + (cx, cy)
+
+    seen = {True: 0, False: 0}
+    for _ in range(300):
+        a, others = quad(), [quad() for _ in range(3)]
+        truth = [polygon_area(clip_convex(a, b)) > 0 for b in others]
+        assert [boxes_overlap(a, b) for b in others] == truth
+        assert overlaps_any(a, others) == any(truth)
+        seen[any(truth)] += 1
+    assert min(seen.values()) > 50  # both outcomes were exercised
+    assert not overlaps_any(quad(), [])
 
 
 def test_shelf_recipe_spreads_objects_over_its_boards(catalogue):
