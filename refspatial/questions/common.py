@@ -67,42 +67,57 @@ def erosion_px(view: ViewFacts) -> int:
     return max(1, round(min(view.width, view.height) / 180))
 
 
-def sample_mask_points(mask: np.ndarray, n: int, rng: np.random.Generator, erode: int,
-                       origin: tuple[int, int] = (0, 0), frame: tuple[int, int] | None = None) -> list[list[float]] | None:
-    """n normalised (x, y) points on a mask, eroded first; each rounded point is checked on the mask.
-
-    A point (x, y) stands for pixel column floor(x * W), row floor(y * H). ``mask`` may be a
-    window of a frame of shape ``frame`` whose top-left pixel is ``origin`` (row, col).
-    """
-    h, w = frame or mask.shape
-    r0, c0 = origin
-    m = mask.astype(np.uint8)
-    rows, cols = np.nonzero(cv2.erode(m, np.ones((3, 3), np.uint8), iterations=erode))
-    if len(rows) == 0:
+def sample_mask_points(mask: np.ndarray, n: int, rng: np.random.Generator, erode: int) -> list[list[float]] | None:
+    """n normalised (x, y) points on a frame-sized mask, eroded first; each rounded point is
+    checked on the mask. A point (x, y) stands for pixel column floor(x * W), row floor(y * H)."""
+    m = mask.view(np.uint8) if mask.dtype == bool else mask.astype(np.uint8)
+    x, y, w, h = cv2.boundingRect(m)
+    if w == 0:
         return None
-    rows, cols = rows + r0, cols + c0
-    points: list[list[float]] = []
-    for _ in range(n * POINT_TRIES):
-        k = int(rng.integers(len(rows)))
-        x, y = round((cols[k] + 0.5) / w, 3), round((rows[k] + 0.5) / h, 3)
-        r, c = min(int(y * h), h - 1) - r0, min(int(x * w), w - 1) - c0
-        if 0 <= r < m.shape[0] and 0 <= c < m.shape[1] and m[r, c]:
-            points.append([x, y])
-            if len(points) == n:
-                return points
-    return None
+    window = padded((slice(y, y + h), slice(x, x + w)), erode + 1, mask.shape)
+    rows, cols = _eroded(m[window], erode)
+    return _draw_points(rows + window[0].start, cols + window[1].start, lambda r, c: mask[r, c], n, rng, mask.shape)
 
 
 def sample_points(view: ViewFacts, object_id: int, n: int, rng: np.random.Generator) -> list[list[float]] | None:
     """n points on the object's eroded visible mask."""
-    erode = erosion_px(view)
-    box = box_of(cached_boxes(view), object_id)
-    if box is None:
+    key = ("eroded_pixels", object_id)
+    if key not in view.cache:  # the same objects are pointed at in question after question
+        box = box_of(cached_boxes(view), object_id)
+        pixels = None
+        if box is not None:
+            erode = erosion_px(view)
+            window = padded(box, erode + 1, view.seg.shape)
+            rows, cols = _eroded((view.seg[window] == object_id).view(np.uint8), erode)
+            pixels = rows + window[0].start, cols + window[1].start
+        view.cache[key] = pixels
+    if view.cache[key] is None:
         return None
-    # Erode and draw within the object's box grown past the erosion's reach: same pixels, same order.
-    window = padded(box, erode + 1, view.seg.shape)
-    return sample_mask_points(view.seg[window] == object_id, n, rng, erode,
-                              origin=(window[0].start, window[1].start), frame=view.seg.shape)
+    return _draw_points(*view.cache[key], lambda r, c: view.seg[r, c] == object_id, n, rng, view.seg.shape)
+
+
+def _eroded(window: np.ndarray, erode: int) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols), row by row, of a uint8 mask's pixels left after ``erode`` 3x3 erosions. The
+    window must reach erode + 1 pixels past the mask (or the frame's edge): then no pixel near
+    the window's border is one the erosion could keep, and the result is the whole frame's."""
+    return np.nonzero(cv2.erode(window, np.ones((3, 3), np.uint8), iterations=erode))
+
+
+def _draw_points(rows: np.ndarray, cols: np.ndarray, on_mask, n: int, rng: np.random.Generator,
+                 frame: tuple[int, int]) -> list[list[float]] | None:
+    """n of the candidate pixels, at random, as normalised points that round back onto the mask."""
+    if len(rows) == 0:
+        return None
+    h, w = frame
+    points: list[list[float]] = []
+    for _ in range(n * POINT_TRIES):
+        k = int(rng.integers(len(rows)))
+        x, y = round((cols[k] + 0.5) / w, 3), round((rows[k] + 0.5) / h, 3)
+        if on_mask(min(int(y * h), h - 1), min(int(x * w), w - 1)):
+            points.append([x, y])
+            if len(points) == n:
+                return points
+    return None
 
 
 def format_points(points: list[list[float]]) -> str:
