@@ -259,12 +259,12 @@ class _Raster:
         a, b = first - self.first, last - self.first + 1
         return self.free[a[1]:b[1], a[0]:b[0]].copy()
 
-    def at(self, points: np.ndarray) -> np.ndarray:
-        """Whether the cell holding each point is free (False off the platform's box)."""
-        idx = np.floor(points / CELL_M).astype(int) - self.first
-        rows, cols = idx[:, 1], idx[:, 0]
+    def at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Whether the cell holding each point (x[i], y[i]) is free (False off the platform's box)."""
+        cols = np.floor(x / CELL_M).astype(int) - self.first[0]
+        rows = np.floor(y / CELL_M).astype(int) - self.first[1]
         ok = (rows >= 0) & (rows < self.free.shape[0]) & (cols >= 0) & (cols < self.free.shape[1])
-        out = np.zeros(len(points), dtype=bool)
+        out = np.zeros(len(x), dtype=bool)
         out[ok] = self.free[rows[ok], cols[ok]]
         return out
 
@@ -322,11 +322,11 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, cells: np.
         s = (z - t[2]) / (M[2, 0] * u[None, :] + M[2, 1] * w[:, None] + M[2, 2])
     ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1] - s) <= OCCLUSION_M)
     rows, cols = np.nonzero(ok)
-    depth = s[rows, cols][:, None]
-    hit = t[:2] + (np.outer(u[cols], M[:2, 0]) + np.outer(w[rows], M[:2, 1]) + M[:2, 2]) * depth
-    free = raster.at(hit)  # the cheap test first: the region test runs on free pixels only
-    rows, cols, hit = rows[free], cols[free], hit[free]
-    good = _in_regions(v, constraints, hit)
+    depth, uc, wr = s[rows, cols], u[cols], w[rows]
+    x, y = (t[k] + (uc * M[k, 0] + wr * M[k, 1] + M[k, 2]) * depth for k in (0, 1))
+    free = raster.at(x, y)  # the cheap test first: the region test runs on free pixels only
+    rows, cols = rows[free], cols[free]
+    good = _in_regions(v, constraints, np.column_stack([x[free], y[free]]))
     mask[rows[good] + r0, cols[good] + c0] = True
     return mask
 
