@@ -32,6 +32,7 @@ from .registry import predicate
 CELL_M = 0.01
 MIN_RADIUS_M = 0.20
 HALF_SECTOR_DEG = 45.0
+COS_HALF_SECTOR = float(np.cos(np.radians(HALF_SECTOR_DEG)))
 TOP_SHRINK = 0.8
 MIN_FREE_AREA_M2 = 0.036
 OCCLUSION_M = 0.025
@@ -139,11 +140,27 @@ def _platform(v: ViewFacts, constraints, anchors: list[ObjectFacts]):
     return support, base.footprint_world, float(base.aabb_world_m[1, 2])
 
 
-def _reach(a: ObjectFacts, axis: np.ndarray) -> tuple[float, float]:
-    """(the anchor's half extent along the axis, the sector radius beyond it)."""
-    half = 0.5 * a.extent_along(np.array([*axis, 0.0]))
-    diagonal = float(np.hypot(*(a.footprint_world[2] - a.footprint_world[0])))
-    return half, max(diagonal, MIN_RADIUS_M)
+@dataclass(frozen=True, eq=False)
+class _Reach:
+    """An anchor seen towards one viewer-frame direction: what sectors and offsets are built on."""
+
+    centre: np.ndarray  # (2,) the anchor's centre on the ground
+    axis: np.ndarray  # (2,) ground-plane unit vector of the direction
+    half: float  # the anchor's half extent along the axis
+    radius: float  # how far a sector reaches beyond that: max(footprint diagonal, MIN_RADIUS_M)
+    sector_box: np.ndarray  # (2, 2) bounding box of the sector
+
+
+def _reach(v: ViewFacts, anchor: int, direction: str) -> _Reach:
+    """Memoised per view: each anchor and direction is solved for statistics and again and again
+    by the question search."""
+    key = ("free_reach", anchor, direction)
+    if key not in v.cache:
+        a, axis = v.objects[anchor], direction_axis(v, direction)
+        centre, half = a.center_world_m[:2], 0.5 * a.extent_along(np.array([*axis, 0.0]))
+        radius = max(float(np.hypot(*(a.footprint_world[2] - a.footprint_world[0]))), MIN_RADIUS_M)
+        v.cache[key] = _Reach(centre, axis, half, radius, _sector_box(centre, axis, half + radius))
+    return v.cache[key]
 
 
 def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -152,16 +169,13 @@ def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> tuple[np.ndarray, n
     region's box."""
     lo, hi = polygon.min(0), polygon.max(0)
     for c in constraints:  # shrink the grid to the region's box when one is known
-        a = v.objects[c.anchors[0]]
         if c.kind == "sector":
-            axis = direction_axis(v, c.direction)
-            half, radius = _reach(a, axis)
-            box = _sector_box(a.center_world_m[:2], axis, half + radius)
+            box = _reach(v, c.anchors[0], c.direction).sector_box
             lo, hi = np.maximum(lo, box[0]), np.minimum(hi, box[1])
         elif c.kind == "offset":
-            half, radius = _reach(a, direction_axis(v, c.direction))
-            centre, r = a.center_world_m[:2], half + radius + (c.offset_m or 0.0)
-            lo, hi = np.maximum(lo, centre - r), np.minimum(hi, centre + r)
+            reach = _reach(v, c.anchors[0], c.direction)
+            r = reach.half + reach.radius + (c.offset_m or 0.0)
+            lo, hi = np.maximum(lo, reach.centre - r), np.minimum(hi, reach.centre + r)
         elif c.kind == "between":  # within the hull of the anchors' footprints: a room's floor is metres wide
             corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
             lo, hi = np.maximum(lo, corners.min(0)), np.minimum(hi, corners.max(0))
@@ -196,14 +210,11 @@ def _in_regions(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
 
 
 def _sector(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
-    a = v.objects[c.anchors[0]]
-    axis = direction_axis(v, c.direction)
-    half, radius = _reach(a, axis)
-    rel = points - a.center_world_m[:2]
+    reach = _reach(v, c.anchors[0], c.direction)
+    rel = points - reach.centre
     dist = np.linalg.norm(rel, axis=1)
-    along = rel @ axis
-    cos_limit = np.cos(np.radians(HALF_SECTOR_DEG))
-    return (along >= cos_limit * dist) & (dist <= half + radius) & (dist > 1e-9)
+    along = rel @ reach.axis
+    return (along >= COS_HALF_SECTOR * dist) & (dist <= reach.half + reach.radius) & (dist > 1e-9)
 
 
 def _between(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
@@ -219,10 +230,8 @@ def _on_top(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
 
 
 def _offset(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
-    a = v.objects[c.anchors[0]]
-    axis = direction_axis(v, c.direction)
-    half, _ = _reach(a, axis)
-    target = a.center_world_m[:2] + (half + c.offset_m) * axis
+    reach = _reach(v, c.anchors[0], c.direction)
+    target = reach.centre + (reach.half + c.offset_m) * reach.axis
     return np.linalg.norm(points - target, axis=1) <= CELL_M * 1.5
 
 
