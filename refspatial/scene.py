@@ -21,10 +21,12 @@ class MeshData:
     vertices_m: np.ndarray  # (N, 3) float64
     faces: np.ndarray  # (M, 3) int32, counter-clockwise seen from outside
 
-    @property
+    @cached_property
     def bounds_m(self) -> np.ndarray:
-        """(2, 3) array: min corner, max corner."""
-        return np.stack([self.vertices_m.min(axis=0), self.vertices_m.max(axis=0)])
+        """(2, 3) array: min corner, max corner (read-only: computed once, placement asks it per try)."""
+        bounds = np.stack([self.vertices_m.min(axis=0), self.vertices_m.max(axis=0)])
+        bounds.flags.writeable = False
+        return bounds
 
     @cached_property
     def volume_m3(self) -> float:
