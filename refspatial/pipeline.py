@@ -21,6 +21,7 @@ from .questions import questions_for_view
 from .recipe import Recipe
 from .records import Record
 from .relations import ViewFacts, computed_relations, view_facts
+from .relations.masks import BOXES_KEY
 from .relations.stored import facts_from_record, object_record, rounded
 from .render import View, render_views
 from .scene import Scene
@@ -79,9 +80,11 @@ def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutc
     with _timed(out.seconds, "render", out.peak_bytes):
         views = render_views(scene, catalogue.materials)
     with _timed(out.seconds, "relations", out.peak_bytes):
-        described = [scene_dict(scene, i, v, view_facts(scene, v)) for i, v in enumerate(views)]
+        seen = [view_facts(scene, v) for v in views]
+        described = [scene_dict(scene, i, v, f) for i, (v, f) in enumerate(zip(views, seen))]
         # Questions see the facts as stored, so re-executing a program on the record gives the same answer.
-        facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam) for d, v in zip(described, views)]
+        facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam, boxes=f.cache[BOXES_KEY])
+                 for d, v, f in zip(described, views, seen)]
         relations = [computed_relations(f) for f in facts]
     keys = [f"{scene.scene_id}/{v.camera.name}" for v in views]
     for i, view in enumerate(views):

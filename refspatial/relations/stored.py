@@ -55,11 +55,12 @@ def object_record(obj: PlacedObject, facts: ObjectFacts) -> dict:
 
 
 def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.ndarray,
-                      T_world_cam: np.ndarray) -> ViewFacts:
-    """The view facts of a record, from its scene JSON and its depth and segmentation arrays."""
+                      T_world_cam: np.ndarray, boxes: list | None = None) -> ViewFacts:
+    """The view facts of a record, from its scene JSON and its depth and segmentation arrays
+    (and the segmentation's ``object_boxes``, when the caller has them already)."""
     K, T = np.asarray(K, dtype=float), np.asarray(T_world_cam, dtype=float)
     right, forward = _horizontal(T[:3, 0]), _horizontal(T[:3, 2])
-    boxes = object_boxes(seg)
+    boxes = object_boxes(seg) if boxes is None else boxes
     objects = tuple(_object_facts(o, seg, depth_m, right, forward, boxes) for o in scene["objects"])
     contacts = frozenset(tuple(p) for p in scene.get("contacts", []))
     table = scene["table"]

@@ -14,9 +14,14 @@ CAVITY_INNER = 0.9  # A's centre must lie within this share of the cavity's half
 CAVITY_OUTSIDE_M = 0.01  # clearly outside: centre beyond the container's footprint grown by this
 
 
-def _overlap(a: ObjectFacts, b: ObjectFacts) -> float:
-    small, big = (a, b) if a.footprint_m.prod() <= b.footprint_m.prod() else (b, a)
-    return overlap_share(small.footprint_world, big.footprint_world)
+def _overlap(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> float:
+    """Share of the smaller footprint that the larger covers; memoised per pair (above and below
+    ask it of both orders)."""
+    key = ("footprint_overlap", *sorted((a.object_id, b.object_id)))
+    if key not in v.cache:
+        small, big = (a, b) if a.footprint_m.prod() <= b.footprint_m.prod() else (b, a)
+        v.cache[key] = overlap_share(small.footprint_world, big.footprint_world)
+    return v.cache[key]
 
 
 @predicate("above", family="world_above_below", arity=2, frame="world", inverse="below")
@@ -27,7 +32,7 @@ def above(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     False: the footprints do not meet, or A's top is below B's bottom + 2 cm.
     Undecided otherwise (partial overlap, interleaved heights).
     """
-    overlap = _overlap(a, b)
+    overlap = _overlap(v, a, b)
     if overlap >= OVERLAP_ABOVE and a.aabb_world_m[0, 2] >= b.aabb_world_m[1, 2] - STACK_TOLERANCE_M:
         return True
     if overlap == 0.0 or a.aabb_world_m[1, 2] <= b.aabb_world_m[0, 2] + STACK_TOLERANCE_M:
