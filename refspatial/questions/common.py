@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import cv2
@@ -21,9 +22,18 @@ SIZE_MEASURES = {"taller_than": "height", "shorter_than": "height", "wider_than"
 
 
 def weighted(weights: dict, rng: np.random.Generator) -> Any:
-    keys = list(weights)
-    p = np.array([weights[k] for k in keys], dtype=float)
-    return keys[int(rng.choice(len(keys), p=p / p.sum()))]
+    keys, p = _probabilities(tuple(weights.items()))
+    return keys[int(rng.choice(len(keys), p=p))]
+
+
+@functools.lru_cache(maxsize=64)
+def _probabilities(items: tuple) -> tuple[tuple, np.ndarray]:
+    """Keys and normalised weights of a recipe's weight table (the same few tables, drawn from
+    thousands of times per shard)."""
+    p = np.array([w for _, w in items], dtype=float)
+    p /= p.sum()
+    p.flags.writeable = False  # shared by every caller
+    return tuple(k for k, _ in items), p
 
 
 def pick_target(view: ViewFacts, rng: np.random.Generator):
@@ -33,10 +43,12 @@ def pick_target(view: ViewFacts, rng: np.random.Generator):
     answer points up in the central image cells.
     """
     objs = view.askable()
-    centre = np.array([view.width / 2, view.height / 2])
-    diag = float(np.hypot(view.width, view.height))
-    w = np.array([0.05 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs]) ** 3
-    return objs[int(rng.choice(len(objs), p=w / w.sum()))]
+    if "target_weights" not in view.cache:
+        centre = np.array([view.width / 2, view.height / 2])
+        diag = float(np.hypot(view.width, view.height))
+        w = np.array([0.05 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs]) ** 3
+        view.cache["target_weights"] = w / w.sum()
+    return objs[int(rng.choice(len(objs), p=view.cache["target_weights"]))]
 
 
 def over_objects(view: ViewFacts, objects, node: Node, rng) -> tuple[list[Node], list, list[str]] | None:
