@@ -69,11 +69,22 @@ class ObjectFacts:
         return float(self.aabb_world_m[1, 2] - self.aabb_world_m[0, 2])
 
     def extent_along(self, axis_world: np.ndarray) -> float:
-        """Width of the object projected on a horizontal unit axis."""
-        if self.footprint_world is not None:
-            coords = self.footprint_world @ axis_world[:2]
-            return float(coords.max() - coords.min())
-        return float(np.abs(self.footprint_m * axis_world[:2]).sum())
+        """Width of the object projected on a horizontal unit axis (memoised: the predicates ask
+        it of the same few axes, the view's own and the free-space directions, ~10^4 times)."""
+        key = axis_world[:2].tobytes()
+        extent = self._extents.get(key)
+        if extent is None:
+            if self.footprint_world is not None:
+                coords = self.footprint_world @ axis_world[:2]
+                extent = float(coords.max() - coords.min())
+            else:
+                extent = float(np.abs(self.footprint_m * axis_world[:2]).sum())
+            self._extents[key] = extent
+        return extent
+
+    @cached_property
+    def _extents(self) -> dict[bytes, float]:
+        return {}
 
 
 @dataclass(frozen=True, eq=False)
