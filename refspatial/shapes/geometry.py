@@ -33,9 +33,13 @@ def _mesh(vertices: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
 
 def outward(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     """The mesh with its faces turned outward (a closed mesh with negative volume is inside out)."""
-    if signed_volume(mesh.vertices, mesh.faces) < 0:
-        return _mesh(mesh.vertices, np.ascontiguousarray(mesh.faces[:, ::-1]))
-    return mesh
+    return _mesh(*_outward(np.asarray(mesh.vertices), np.asarray(mesh.faces)))
+
+
+def _outward(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    if signed_volume(vertices, faces) < 0:
+        return vertices, np.ascontiguousarray(faces[:, ::-1])
+    return vertices, faces
 
 
 def revolve(profile: Any, sections: int = SEGMENTS) -> trimesh.Trimesh:
@@ -45,23 +49,31 @@ def revolve(profile: Any, sections: int = SEGMENTS) -> trimesh.Trimesh:
     rings two triangles per section; a ring on the axis collapses onto one pole vertex, and
     the triangles that collapse with it are dropped."""
     rz = np.asarray(profile, dtype=float)
-    rz = rz[np.r_[True, np.any(np.diff(rz, axis=0) != 0, axis=1)]]  # a repeated point adds an empty band
-    theta = np.linspace(0, 2 * math.pi, sections, endpoint=False)
+    keep = np.ones(len(rz), dtype=bool)
+    keep[1:] = (rz[1:] != rz[:-1]).any(axis=1)  # a repeated point adds an empty band
+    rz = rz[keep]
+    cos, sin = _ring(sections)
     grid = np.empty((len(rz), sections, 3))
-    grid[..., 0] = rz[:, :1] * np.cos(theta)
-    grid[..., 1] = rz[:, :1] * np.sin(theta)
+    grid[..., 0] = rz[:, :1] * cos
+    grid[..., 1] = rz[:, :1] * sin
     grid[..., 2] = rz[:, 1:]
     index = np.arange(grid.shape[0] * sections).reshape(-1, sections)
     pole = np.abs(rz[:, 0]) < 1e-12
     index[pole] = index[pole][:, :1]
     a, b = index[:-1], index[1:]
-    d, c = np.roll(a, -1, axis=1), np.roll(b, -1, axis=1)
-    faces = np.vstack([np.stack([a, c, d], -1).reshape(-1, 3), np.stack([a, b, c], -1).reshape(-1, 3)])
+    d, c = np.concatenate([a[:, 1:], a[:, :1]], axis=1), np.concatenate([b[:, 1:], b[:, :1]], axis=1)
+    faces = np.concatenate([np.stack([a, c, d], -1).reshape(-1, 3), np.stack([a, b, c], -1).reshape(-1, 3)])
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])]
-    used = np.unique(faces)
-    remap = np.empty(index.size, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    return outward(_mesh(grid.reshape(-1, 3)[used], remap[faces]))
+    used = np.zeros(index.size, dtype=bool)
+    used[faces.ravel()] = True
+    remap = np.cumsum(used) - 1
+    return _mesh(*_outward(grid.reshape(-1, 3)[used], remap[faces]))
+
+
+@functools.lru_cache(maxsize=None)
+def _ring(sections: int) -> tuple[np.ndarray, np.ndarray]:
+    theta = np.linspace(0, 2 * math.pi, sections, endpoint=False)
+    return np.cos(theta), np.sin(theta)
 
 
 def arc(cr: float, cz: float, radius: float, a0: float, a1: float, n: int = 7) -> list[tuple[float, float]]:
