@@ -116,3 +116,70 @@ def test_sector_box_bounds_the_sector_tightly():
         assert np.all(pts >= box[0] - 1e-12) and np.all(pts <= box[1] + 1e-12)
         # ... and reach its every side (within the sampling step).
         assert np.allclose(pts.min(0), box[0], atol=r * 1e-3) and np.allclose(pts.max(0), box[1], atol=r * 1e-3)
+
+
+def _brute_force_mask(v, constraints, answer):
+    """The definition of a region's image mask, evaluated at every pixel of the frame: the
+    pixel's ray meets the platform plane, nothing nearer hides that point, the point is in
+    every region, and its 1 cm cell is free."""
+    from refspatial.relations.free_space import CELL_M, _in_regions, _platform, _raster
+
+    support, polygon, z = _platform(v, constraints, [v.objects[i] for c in constraints for i in c.anchors])
+    raster = _raster(v, support, polygon, z)
+    rows, cols = np.mgrid[0:v.height, 0:v.width]
+    rays = np.stack([cols + 0.5, rows + 0.5, np.ones_like(cols)], -1).reshape(-1, 3) @ np.linalg.inv(v.K).T
+    dirs = rays @ v.T_world_cam[:3, :3].T
+    t = v.T_world_cam[:3, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (z - t[2]) / dirs[:, 2]
+    hit = t[:2] + dirs[:, :2] * s[:, None]
+    seen = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m.reshape(-1) - s) <= OCCLUSION_M)
+    cell = np.floor(hit[seen] / CELL_M).astype(int) - raster.first
+    on = (cell >= 0).all(1) & (cell[:, 0] < raster.free.shape[1]) & (cell[:, 1] < raster.free.shape[0])
+    free = np.zeros(len(cell), dtype=bool)
+    free[on] = raster.free[cell[on, 1], cell[on, 0]]
+    mask = np.zeros(len(s), dtype=bool)
+    mask[np.flatnonzero(seen)[free]] = _in_regions(v, constraints, hit[seen][free])
+    return mask.reshape(v.height, v.width)
+
+
+def test_region_masks_match_their_per_pixel_definition(views):
+    """Masks are computed on a window, with whole cells inside the region taken without a per-pixel
+    test; the result must be the definition's, pixel for pixel."""
+    checked = 0
+    for v in views:
+        objs = [o for o in v.askable() if o.support == TABLE]
+        cases = [(Constraint("sector", (a.object_id,), d),) for a in objs for d in DIRECTIONS]
+        cases += [(Constraint("between", (a.object_id, b.object_id)),) for a in objs for b in objs if a.object_id < b.object_id]
+        cases += [(Constraint("offset", (a.object_id,), "left", 0.05),) for a in objs]
+        for c in cases:
+            answer = solve(v, c)
+            if answer is None:
+                continue
+            expected = _brute_force_mask(v, c, answer)
+            assert np.array_equal(answer.mask, expected), (c, int((answer.mask != expected).sum()))
+            checked += 1
+    assert checked >= 6
+
+
+def test_grown_regions_hold_every_point_near_the_region(views):
+    """_in_regions(grow=g) decides which cells may meet a region, so it must hold every point
+    within g of a point of the region (it may hold more)."""
+    from refspatial.relations.free_space import _in_regions
+
+    rng = np.random.default_rng(3)
+    v = views[0]
+    objs = v.askable()
+    cases = [(Constraint("sector", (a.object_id,), d),) for a in objs for d in DIRECTIONS]
+    cases += [(Constraint("between", (objs[0].object_id, objs[1].object_id)),)]
+    cases += [(Constraint("offset", (a.object_id,), "behind", 0.1),) for a in objs]
+    for c in cases:
+        centre = v.objects[c[0].anchors[0]].center_world_m[:2]
+        points = centre + rng.uniform(-0.6, 0.6, (20000, 2))
+        inside = points[_in_regions(v, c, points)]
+        assert len(inside) > 0, c
+        for grow in (0.003, 0.0071):
+            step = rng.normal(size=inside.shape)
+            step *= rng.uniform(0, grow, (len(inside), 1)) / np.linalg.norm(step, axis=1, keepdims=True)
+            assert _in_regions(v, c, inside + step, grow=grow).all(), (c, grow)
+            assert not _in_regions(v, c, centre + np.array([[5.0, 5.0]]), grow=grow).any()

@@ -109,7 +109,7 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
         return None
     mask = None
     if with_mask:
-        mask = _image_mask(v, constraints, raster, z, free)
+        mask = _image_mask(v, constraints, raster, z, first, last)
         if not _on_mask(v, mask, point):
             snapped = _snap(v, mask, uv[0], z, lambda p: _in_regions(v, constraints, p) &
                             _free_exact(v, p, support, polygon, z))
@@ -202,37 +202,44 @@ def _sector_box(centre: np.ndarray, axis: np.ndarray, r: float) -> np.ndarray:
     return np.stack([pts.min(0), pts.max(0)])
 
 
-def _in_regions(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
+def _in_regions(v: ViewFacts, constraints, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
+    """Whether each point lies in every region. With ``grow`` > 0, a cheap superset instead:
+    each region's bounding half-planes and circles moved out by ``grow`` metres, which holds
+    every point within ``grow`` of the region (and some more, near its corners)."""
     keep = np.ones(len(points), dtype=bool)
     for c in constraints:
-        keep &= REGIONS[c.kind](v, c, points)
+        keep &= REGIONS[c.kind](v, c, points, grow)
     return keep
 
 
-def _sector(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
+def _sector(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
     reach = _reach(v, c.anchors[0], c.direction)
     rel = points - reach.centre
     dist = np.linalg.norm(rel, axis=1)
+    if grow > 0:  # a 90 degree sector is the disc cut by the two half-planes facing its edges
+        turn = np.radians(HALF_SECTOR_DEG)
+        sides = [reach.axis @ np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]]) for a in (turn, -turn)]
+        return (rel @ sides[0] >= -grow) & (rel @ sides[1] >= -grow) & (dist <= reach.half + reach.radius + grow)
     along = rel @ reach.axis
     return (along >= COS_HALF_SECTOR * dist) & (dist <= reach.half + reach.radius) & (dist > 1e-9)
 
 
-def _between(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
+def _between(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
     key = ("between_hull", *sorted(c.anchors))
     if key not in v.cache:  # the mask and every solve with this pair ask again
         corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
         v.cache[key] = corners[ConvexHull(corners).vertices]
-    return inside_convex(points, v.cache[key])
+    return inside_convex(points, v.cache[key], grow=grow)
 
 
-def _on_top(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
+def _on_top(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
     return np.ones(len(points), dtype=bool)  # the platform polygon already is the shrunk top face
 
 
-def _offset(v: ViewFacts, c: Constraint, points: np.ndarray) -> np.ndarray:
+def _offset(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
     reach = _reach(v, c.anchors[0], c.direction)
     target = reach.centre + (reach.half + c.offset_m) * reach.axis
-    return np.linalg.norm(points - target, axis=1) <= CELL_M * 1.5
+    return np.linalg.norm(points - target, axis=1) <= CELL_M * 1.5 + grow
 
 
 REGIONS = {"sector": _sector, "between": _between, "on_top": _on_top, "offset": _offset}
@@ -263,18 +270,14 @@ class _Raster:
             window &= ~hit
 
     def block(self, first: np.ndarray, last: np.ndarray) -> np.ndarray:
-        """A copy of the free flags of cells first..last (inclusive (x, y) indices inside the
-        raster), rows following y."""
-        a, b = first - self.first, last - self.first + 1
-        return self.free[a[1]:b[1], a[0]:b[0]].copy()
-
-    def at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Whether the cell holding each point (x[i], y[i]) is free (False off the platform's box)."""
-        cols = np.floor(x / CELL_M).astype(int) - self.first[0]
-        rows = np.floor(y / CELL_M).astype(int) - self.first[1]
-        ok = (rows >= 0) & (rows < self.free.shape[0]) & (cols >= 0) & (cols < self.free.shape[1])
-        out = np.zeros(len(x), dtype=bool)
-        out[ok] = self.free[rows[ok], cols[ok]]
+        """A copy of the free flags of cells first..last (inclusive (x, y) indices), rows
+        following y; cells off the raster are not free."""
+        out = np.zeros((last - first + 1)[::-1], dtype=bool)
+        a, b = np.maximum(first, self.first), np.minimum(last, self.first + self.free.shape[::-1] - 1)
+        if np.all(b >= a):
+            (x0, y0), (x1, y1) = a - first, b - first + 1
+            (u0, v0), (u1, v1) = a - self.first, b - self.first + 1
+            out[y0:y1, x0:x1] = self.free[v0:v1, u0:u1]
         return out
 
 
@@ -310,19 +313,26 @@ def _visible(v: ViewFacts, points_world: np.ndarray) -> np.ndarray:
     return out
 
 
-def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, cells: np.ndarray) -> np.ndarray:
+def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.ndarray,
+                last: np.ndarray) -> np.ndarray:
     """Pixels whose ray meets the platform plane, unoccluded, inside the region and in a free cell.
 
-    Only the image window covering the free cells (grown by a cell) is evaluated.
+    Only the image window covering the free cells that may meet the region is evaluated, and
+    the region is tested per pixel only in cells that cross its edge (``_cell_codes``).
     """
-    corners = (cells[:, None, :] + CELL_M * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])).reshape(-1, 2)
-    uv, depth = project(np.column_stack([corners, np.full(len(corners), z)]), v.K, v.T_world_cam)
+    # The solve's box bounds cell centres: a cell one past it can still hold part of the region.
+    lo, hi = first - 1, last + 1
+    codes = _cell_codes(v, constraints, raster, lo, hi)
+    iy, ix = np.nonzero(codes)
+    corners = ((np.column_stack([ix, iy]) + lo)[:, None, :] + np.array([[0, 0], [1, 0], [1, 1], [0, 1]])).reshape(-1, 2)
+    uv, depth = project(np.column_stack([corners * CELL_M, np.full(len(corners), z)]), v.K, v.T_world_cam)
     mask = np.zeros((v.height, v.width), dtype=bool)
-    uv = uv[depth > 0]
     if len(uv) == 0:
         return mask
-    c0, r0 = np.clip(np.floor(uv.min(0)).astype(int) - 1, 0, [v.width, v.height])
-    c1, r1 = np.clip(np.ceil(uv.max(0)).astype(int) + 1, 0, [v.width, v.height])
+    c0, r0, c1, r1 = 0, 0, v.width, v.height  # a cell reaching behind the camera: any pixel may see it
+    if np.all(depth > 0):
+        c0, r0 = np.clip(np.floor(uv.min(0)).astype(int) - 1, 0, [v.width, v.height])
+        c1, r1 = np.clip(np.ceil(uv.max(0)).astype(int) + 1, 0, [v.width, v.height])
     # World direction of each pixel's ray, scaled so that its camera-frame z is 1: s below is
     # then the optical-axis depth at which it meets the plane, comparable with the depth image.
     M, t = v.T_world_cam[:3, :3] @ np.linalg.inv(v.K), v.T_world_cam[:3, 3]
@@ -333,11 +343,33 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, cells: np.
     rows, cols = np.nonzero(ok)
     depth, uc, wr = s[rows, cols], u[cols], w[rows]
     x, y = (t[k] + (uc * M[k, 0] + wr * M[k, 1] + M[k, 2]) * depth for k in (0, 1))
-    free = raster.at(x, y)  # the cheap test first: the region test runs on free pixels only
-    rows, cols = rows[free], cols[free]
-    good = _in_regions(v, constraints, np.column_stack([x[free], y[free]]))
-    mask[rows[good] + r0, cols[good] + c0] = True
+    ix, iy = np.floor(x / CELL_M).astype(int) - lo[0], np.floor(y / CELL_M).astype(int) - lo[1]
+    on = (ix >= 0) & (ix < codes.shape[1]) & (iy >= 0) & (iy < codes.shape[0])
+    code = np.zeros(len(x), dtype=np.uint8)
+    code[on] = codes[iy[on], ix[on]]
+    keep, edge = code == WHOLE, code == EDGE
+    keep[edge] = _in_regions(v, constraints, np.column_stack([x[edge], y[edge]]))
+    mask[rows[keep] + r0, cols[keep] + c0] = True
     return mask
+
+
+WHOLE, EDGE = 1, 2  # cell codes; 0 is a cell that is not free or lies outside the region
+HALF_DIAGONAL_M = CELL_M * np.sqrt(0.5) * (1 + 1e-9)  # a cell lies within this of its centre
+
+
+def _cell_codes(v: ViewFacts, constraints, raster: _Raster, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Per lattice cell first..last (rows following y): WHOLE where the cell is free and wholly in
+    the region (its four corners are, and every region is convex: a 90 degree sector, a hull, a
+    disc, or an intersection of those), EDGE where it is free and may meet the region (its centre
+    is within half a diagonal of it), and 0 elsewhere."""
+    xs = np.arange(first[0], last[0] + 2) * CELL_M
+    ys = np.arange(first[1], last[1] + 2) * CELL_M
+    inside = _in_regions(v, constraints, np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2))
+    inside = inside.reshape(len(ys), len(xs))
+    whole = inside[:-1, :-1] & inside[:-1, 1:] & inside[1:, :-1] & inside[1:, 1:]
+    centres = _cell_centres(first, last - first + 1)
+    near = _in_regions(v, constraints, centres, grow=HALF_DIAGONAL_M).reshape(whole.shape)
+    return np.where(raster.block(first, last) & near, np.where(whole, WHOLE, EDGE), 0).astype(np.uint8)
 
 
 SNAP_TRIES = 256  # mask pixels, nearest first, tried for a snapped answer point
