@@ -14,7 +14,6 @@ from typing import Any, Sequence
 import manifold3d
 import numpy as np
 import trimesh
-from scipy.spatial import ConvexHull, QhullError
 
 from ..scene import signed_volume
 from .registry import Built
@@ -122,20 +121,15 @@ def _trimesh(solid: manifold3d.Manifold) -> trimesh.Trimesh:
 
 
 def hull(points: Any) -> trimesh.Trimesh:
-    """Convex hull as a closed, outward mesh. Qhull directly: trimesh's convex_hull adds checks
-    and repairs that cost ~2 ms a call, and builders make hundreds of hulls per scene."""
+    """Convex hull as a closed, outward mesh of the hull's own vertices. manifold3d's QuickHull:
+    builders make hundreds of small hulls per scene, and it is ten times quicker than Qhull
+    through scipy plus the orientation fix-up that needs."""
     pts = np.asarray(points, dtype=float)
-    try:
-        qh = ConvexHull(pts)
-    except QhullError:  # flat or degenerate input: trimesh knows how to thicken it
+    solid = manifold3d.Manifold.hull_points(pts)
+    if solid.volume() <= 0:  # flat or degenerate input: trimesh's hull, as flat
         return trimesh.convex.convex_hull(pts)
-    faces = qh.simplices.copy()
-    a, b, c = (pts[faces[:, k]] for k in range(3))
-    flip = np.einsum("ij,ij->i", np.cross(b - a, c - a), qh.equations[:, :3]) < 0  # face the outward normal
-    faces[flip] = faces[flip][:, ::-1]
-    remap = np.empty(len(pts), dtype=np.int64)  # keep only the hull's own vertices
-    remap[qh.vertices] = np.arange(len(qh.vertices))
-    return _mesh(pts[qh.vertices], remap[faces])
+    mesh = solid.to_mesh64()
+    return _mesh(np.array(mesh.vert_properties[:, :3]), np.array(mesh.tri_verts, dtype=np.int64))
 
 
 def hull_of(*meshes: trimesh.Trimesh) -> trimesh.Trimesh:
