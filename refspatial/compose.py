@@ -135,8 +135,9 @@ def overlaps_any(quad: np.ndarray, others: list[np.ndarray]) -> bool:
     if not near.any():  # boxes apart: the quads are too (most tries end here)
         return False
     b = b[near]
-    edges = np.concatenate([np.broadcast_to(np.roll(quad, -1, axis=0) - quad, b.shape), np.roll(b, -1, axis=1) - b], axis=1)
-    axes = (edges @ np.array([[0.0, 1.0], [-1.0, 0.0]])).transpose(0, 2, 1)  # (k, 2, 8): each edge turned by 90 degrees
+    own = np.broadcast_to(np.roll(quad, -1, axis=0) - quad, b.shape)
+    edges = np.concatenate([own, np.roll(b, -1, axis=1) - b], axis=1)
+    axes = (edges @ np.array([[0.0, 1.0], [-1.0, 0.0]])).transpose(0, 2, 1)  # (k, 2, 8): edges turned by 90 deg
     pa, pb = quad @ axes, b @ axes
     separated = (pa.max(axis=1) < pb.min(axis=1)) | (pb.max(axis=1) < pa.min(axis=1))
     return bool(np.any(~separated.any(axis=1)))
