@@ -23,7 +23,7 @@ from .assets import MaterialSpec  # noqa: E402
 from .mjcf import COLLISION_GROUP, SpecOptions, build_spec, object_of_geom  # noqa: E402
 from .scene import Camera, Scene  # noqa: E402
 
-MAX_GEOM = 2000
+SPARE_GEOMS = 64  # room in the abstract scene beyond the model's own geoms (lights, decor)
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,21 +79,27 @@ def render_views(scene: Scene, materials: dict[str, MaterialSpec]) -> list[View]
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, ctx)
         ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         lookup = object_of_geom(model, len(scene.objects))
-        return [_render_one(model, data, ctx, cam, lookup) for cam in scene.cameras]
+        # One abstract scene for all views, sized to the model: allocating room for thousands of
+        # geoms took longer than reading a view back.
+        scn = mujoco.MjvScene(model, maxgeom=model.ngeom + SPARE_GEOMS)
+        return [_render_one(model, data, ctx, scn, cam, lookup) for cam in scene.cameras]
     finally:
         ctx.free()
 
 
-def _render_one(model, data, ctx, cam: Camera, lookup: np.ndarray) -> View:
+def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray) -> View:
     import mujoco
 
     option = mujoco.MjvOption()
     option.geomgroup[COLLISION_GROUP] = 0
-    scn = mujoco.MjvScene(model, maxgeom=MAX_GEOM)
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
     camera.fixedcamid = model.camera(cam.name).id
+    scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
+    scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = False
     mujoco.mjv_updateScene(model, data, option, None, camera, mujoco.mjtCatBit.mjCAT_ALL.value, scn)
+    if scn.ngeom >= scn.maxgeom:  # MuJoCo drops what does not fit: objects would vanish silently
+        raise RuntimeError(f"the scene has more than {scn.maxgeom} visual geoms; raise SPARE_GEOMS")
     rect = mujoco.MjrRect(0, 0, cam.width, cam.height)
     rgb = np.empty((cam.height, cam.width, 3), dtype=np.uint8)
     mujoco.mjr_render(rect, scn, ctx)
