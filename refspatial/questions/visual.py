@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
-from ..relations.masks import cached_boxes, object_pixels
+from ..relations.masks import box_of, cached_boxes
 from .common import QA, make_qa
 from .location import described_target
 from .phrases import Phrasebook
@@ -51,10 +51,12 @@ def visual_choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.r
 
 
 def _box(view: ViewFacts, object_id: int) -> list[int]:
-    rows, cols, _ = object_pixels(view.seg, cached_boxes(view), object_id)
+    """The object's pixel box (x0, y0, x1, y1, inclusive), padded a little; its mask's tight box
+    is the segmentation's ``object_boxes`` slice."""
+    rows, cols = box_of(cached_boxes(view), object_id)
     pad = max(1, round(min(view.width, view.height) / 180))
-    return [max(0, int(cols.min()) - pad), max(0, int(rows.min()) - pad),
-            min(view.width - 1, int(cols.max()) + pad), min(view.height - 1, int(rows.max()) + pad)]
+    return [max(0, cols.start - pad), max(0, rows.start - pad),
+            min(view.width - 1, cols.stop - 1 + pad), min(view.height - 1, rows.stop - 1 + pad)]
 
 
 def _iou(a: list[int], b: list[int]) -> float:
