@@ -212,8 +212,8 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, category: str | None, co
     if key not in view.cache:
         head, sets = _kept_sets(view, category, color, parts)
         bit = 1 << target.object_id
-        scored = {kind: [_Part(r, sum(1 << a.object_id for a in r.anchors), _PREDICATE_INDEX[r.predicate], *sets[r])
-                         for r in rels if r in sets and sets[r][0] & bit]
+        scored = {kind: [_Part(r, sum(1 << a.object_id for a in r.anchors), _PREDICATE_INDEX[r.predicate], *kept)
+                         for r, kept in zip(rels, sets.get(kind, ())) if kept[0] & bit]
                   for kind, rels in parts.items()}
         view.cache[key] = (head, scored)
     return view.cache[key]
@@ -277,28 +277,29 @@ def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
 
 
 def _kept_sets(view: ViewFacts, category: str | None, color: str | None, parts):
-    """The head's candidates, and for each part (kept, undecided): the candidates it keeps, and
-    those it cannot decide (a program fails if one of those is still a candidate when it runs).
-    All three are bit masks over object ids."""
+    """The head's candidates, and per kind, for each of its parts in order (kept, undecided): the
+    candidates it keeps, and those it cannot decide (a program fails if one of those is still a
+    candidate when it runs). All three are bit masks over object ids."""
     ids = [o.object_id for o in view.objects if o.status != "hidden"
            and category in (None, o.category) and color in (None, o.color)]
     if any(view.objects[i].status != "visible" for i in ids):
         return 0, {}
-    out = {}
-    for rel in (r for group in parts.values() for r in group):
-        anchors = [a.object_id for a in rel.anchors]
-        kept = undecided = 0
-        for i in ids:
-            if i in anchors:
-                continue
-            args = [*anchors, i] if rel.reverse else [i, *anchors]
-            verdict = PREDICATES[rel.predicate](view, *(view.objects[k] for k in args))
-            if verdict is None:
-                undecided |= 1 << i
-            elif verdict:
-                kept |= 1 << i
-        out[rel] = (kept, undecided)
-    return sum(1 << i for i in ids), out
+    return sum(1 << i for i in ids), {kind: [_kept(view, rel, ids) for rel in rels] for kind, rels in parts.items()}
+
+
+def _kept(view: ViewFacts, rel: Relation, ids: list[int]) -> tuple[int, int]:
+    anchors = [a.object_id for a in rel.anchors]
+    kept = undecided = 0
+    for i in ids:
+        if i in anchors:
+            continue
+        args = [*anchors, i] if rel.reverse else [i, *anchors]
+        verdict = PREDICATES[rel.predicate](view, *(view.objects[k] for k in args))
+        if verdict is None:
+            undecided |= 1 << i
+        elif verdict:
+            kept |= 1 << i
+    return kept, undecided
 
 
 def _holds(view: ViewFacts, name: str, objs: list[ObjectFacts]) -> bool:
