@@ -59,7 +59,7 @@ def thinner_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 def _gap_and_scale(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, float]:
     gap = v.footprint_gap(a, b)
-    scale = float(np.mean([a.footprint_m.max(), b.footprint_m.max()]))
+    scale = (float(a.footprint_m.max()) + float(b.footprint_m.max())) / 2
     return gap, scale
 
 
