@@ -323,9 +323,10 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
     # The solve's box bounds cell centres: a cell one past it can still hold part of the region.
     lo, hi = first - 1, last + 1
     codes = _cell_codes(v, constraints, raster, lo, hi)
-    iy, ix = np.nonzero(codes)
-    corners = ((np.column_stack([ix, iy]) + lo)[:, None, :] + np.array([[0, 0], [1, 0], [1, 1], [0, 1]])).reshape(-1, 2)
-    uv, depth = project(np.column_stack([corners * CELL_M, np.full(len(corners), z)]), v.K, v.T_world_cam)
+    cell_rows, cell_cols = np.nonzero(codes)
+    cells = np.column_stack([cell_cols, cell_rows]) + lo
+    corners = (cells[:, None, :] + np.array([[0, 0], [1, 0], [1, 1], [0, 1]])).reshape(-1, 2) * CELL_M
+    uv, depth = project(np.column_stack([corners, np.full(len(corners), z)]), v.K, v.T_world_cam)
     mask = np.zeros((v.height, v.width), dtype=bool)
     if len(uv) == 0:
         return mask

@@ -126,7 +126,7 @@ def hull(points: Any) -> trimesh.Trimesh:
     through scipy plus the orientation fix-up that needs."""
     pts = np.asarray(points, dtype=float)
     solid = manifold3d.Manifold.hull_points(pts)
-    if solid.volume() <= 0:  # flat or degenerate input: trimesh's hull, as flat
+    if solid.volume() <= 0:  # flat or degenerate input has no volume; trimesh's hull of it, as ever
         return trimesh.convex.convex_hull(pts)
     mesh = solid.to_mesh64()
     return _mesh(np.array(mesh.vert_properties[:, :3]), np.array(mesh.tri_verts, dtype=np.int64))
