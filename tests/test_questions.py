@@ -184,3 +184,29 @@ def test_families_on_a_hand_built_view():
             assert q["answer"].startswith("(")
         if q["family"] == "multiview":
             assert q["images"] == ["k0", "k"]
+
+
+def test_mask_points_come_from_the_whole_frames_erosion():
+    """Answer points are drawn from the eroded mask, eroded only inside the mask's padded box.
+    Every point must be a pixel the whole frame's erosion keeps and round back onto the mask,
+    also for masks that touch the frame's edge."""
+    import cv2
+
+    from refspatial.questions.common import sample_mask_points
+
+    rng = np.random.default_rng(11)
+    h, w = 54, 96
+    for _ in range(40):
+        mask = np.zeros((h, w), dtype=bool)
+        for _ in range(int(rng.integers(1, 4))):
+            (r0, c0), (dr, dc) = rng.integers(-10, [h, w]), rng.integers(3, 30, 2)
+            mask[max(r0, 0):r0 + dr, max(c0, 0):c0 + dc] = True
+        eroded = cv2.erode(mask.view(np.uint8), np.ones((3, 3), np.uint8), iterations=2).astype(bool)
+        points = sample_mask_points(mask, 30, np.random.default_rng(0), erode=2)
+        if not eroded.any():
+            assert points is None
+            continue
+        assert points is not None and len(points) == 30
+        for x, y in points:
+            assert mask[int(y * h), int(x * w)]
+            assert eroded[round(y * h - 0.5), round(x * w - 0.5)]  # a pixel centre, to 3 decimals

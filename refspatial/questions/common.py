@@ -17,6 +17,7 @@ from .refer import compile_ref, simple_refs
 QA = dict[str, Any]
 POINT_TRIES = 20
 ORIENTATION_PREDICATES = ("on_facing_side", "on_back_side")
+TARGET_WEIGHTS_KEY = ("target_weights",)  # where a view's cache keeps pick_target's weights
 SIZE_MEASURES = {"taller_than": "height", "shorter_than": "height", "wider_than": "width",
                  "thinner_than": "width", "bigger_than": "size", "smaller_than": "size"}
 
@@ -43,12 +44,12 @@ def pick_target(view: ViewFacts, rng: np.random.Generator):
     answer points up in the central image cells.
     """
     objs = view.askable()
-    if "target_weights" not in view.cache:
+    if TARGET_WEIGHTS_KEY not in view.cache:
         centre = np.array([view.width / 2, view.height / 2])
         diag = float(np.hypot(view.width, view.height))
         w = np.array([0.05 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs]) ** 3
-        view.cache["target_weights"] = w / w.sum()
-    return objs[int(rng.choice(len(objs), p=view.cache["target_weights"]))]
+        view.cache[TARGET_WEIGHTS_KEY] = w / w.sum()
+    return objs[int(rng.choice(len(objs), p=view.cache[TARGET_WEIGHTS_KEY]))]
 
 
 def over_objects(view: ViewFacts, objects, node: Node, rng) -> tuple[list[Node], list, list[str]] | None:
