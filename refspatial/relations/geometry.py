@@ -120,7 +120,7 @@ def covered_pixels(tris: np.ndarray, width: int, height: int) -> int:
     for k in range(3):  # inside: left of (or on) every edge p -> q of a positively wound triangle
         p, q = t[:, k], t[:, (k + 1) % 3]
         dx, dy = q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # near-flat edges cross far away
             x = p[:, 0] + dx * (y - p[:, 1]) / dy  # where the edge's line crosses this row
         hi = np.where(dy > 0, np.minimum(hi, x), hi)
         lo = np.where(dy < 0, np.maximum(lo, x), lo)
