@@ -24,10 +24,10 @@ VISUAL_GROUP = 0
 COLLISION_GROUP = 3
 TABLE_THICKNESS_M = 0.03
 DENSITY_KG_M3 = 600.0  # household objects are mostly hollow; a mean keeps masses plausible
-FRICTION = (1.0, 0.01, 0.002)
+FRICTION = (1.0, 0.01, 0.002)  # sliding, torsional, rolling: rolling friction stops apples drifting
 FLOOR_EXTENT_M = 3.0  # model extent for a room: the shadow map (centred on the objects) spans the furniture
 WALL_HEIGHT_M, WALL_THICKNESS_M = 2.6, 0.1
-WALL_RGBA = (0.86, 0.84, 0.80, 1.0)  # sliding, torsional, rolling: rolling friction stops apples drifting
+WALL_RGBA = (0.86, 0.84, 0.80, 1.0)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from .questions import questions_for_view
 from .recipe import Recipe
 from .records import Record
 from .relations import ViewFacts, computed_relations, view_facts
-from .relations.masks import BOXES_KEY
+from .relations.masks import cached_boxes
 from .relations.stored import facts_from_record, object_record, rounded
 from .render import View, render_views
 from .scene import Scene
@@ -83,7 +83,7 @@ def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutc
         seen = [view_facts(scene, v) for v in views]
         described = [scene_dict(scene, i, v, f) for i, (v, f) in enumerate(zip(views, seen))]
         # Questions see the facts as stored, so re-executing a program on the record gives the same answer.
-        facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam, boxes=f.cache[BOXES_KEY])
+        facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam, boxes=cached_boxes(f))
                  for d, v, f in zip(described, views, seen)]
         relations = [computed_relations(f) for f in facts]
     keys = [f"{scene.scene_id}/{v.camera.name}" for v in views]

@@ -6,7 +6,6 @@ from __future__ import annotations
 import errno
 import fcntl
 import io
-import json
 import os
 import re
 import shutil

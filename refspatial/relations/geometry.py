@@ -51,10 +51,16 @@ def clip_convex(subject: np.ndarray, clipper: np.ndarray) -> np.ndarray:
     return out
 
 
+def boxes_meet(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two point sets' axis-aligned bounding boxes touch or overlap: when they do not,
+    neither do the polygons, and most pairs in a scene are decided by this alone."""
+    return bool(np.all(a.min(0) <= b.max(0)) and np.all(b.min(0) <= a.max(0)))
+
+
 def overlap_share(a: np.ndarray, b: np.ndarray) -> float:
     """Area of a ∩ b as a share of a's area."""
-    if np.any(a.max(0) < b.min(0)) or np.any(b.max(0) < a.min(0)):
-        return 0.0  # apart along x or y: most pairs, and clipping costs a hundred times more
+    if not boxes_meet(a, b):
+        return 0.0  # clipping costs a hundred times more
     area = polygon_area(a)
     return polygon_area(clip_convex(a, b)) / area if area > 0 else 0.0
 
@@ -70,8 +76,7 @@ def inside_convex(points: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np
 
 def gap_between(a: np.ndarray, b: np.ndarray) -> float:
     """Smallest distance between two convex polygons (0 when they overlap)."""
-    boxes_meet = np.all(a.min(0) <= b.max(0)) and np.all(b.min(0) <= a.max(0))
-    if boxes_meet and len(clip_convex(a, b)) >= 3:
+    if boxes_meet(a, b) and len(clip_convex(a, b)) >= 3:
         return 0.0
     best = np.inf
     for p, q in ((a, b), (b, a)):  # every corner of one against every edge of the other

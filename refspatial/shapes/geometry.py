@@ -122,7 +122,7 @@ def _trimesh(solid: manifold3d.Manifold) -> trimesh.Trimesh:
 
 def hull(points: Any) -> trimesh.Trimesh:
     """Convex hull as a closed, outward mesh of the hull's own vertices. manifold3d's QuickHull:
-    builders make hundreds of small hulls per scene, and it is ten times quicker than Qhull
+    builders make hundreds of small hulls per scene, and it is six times quicker than Qhull
     through scipy plus the orientation fix-up that needs."""
     pts = np.asarray(points, dtype=float)
     solid = manifold3d.Manifold.hull_points(pts)
