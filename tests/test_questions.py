@@ -1,5 +1,7 @@
 """The question engine on hand-built views: programs, descriptions, step counts and every family."""
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -119,6 +121,47 @@ def test_generated_descriptions_resolve_with_their_step_count(steps):
     assert found > 0
 
 
+def _chained(ref: Ref) -> list[Ref]:
+    return [a for rel in ref.relations for a in rel.anchors if a.relations]
+
+
+@pytest.mark.parametrize("steps", [3, 4, 5])
+def test_chained_anchors_count_their_own_steps_and_name_each_object_once(steps):
+    """Long descriptions may reach the target through an anchor picked by a relation of its own
+    ("the mug left of the red mug that is right of the plate"). Their step count is the program's,
+    every object is named once, and the chain is the last clause, with a single relation, so no
+    later phrase can be read as the anchor's."""
+    # MUGS has no object alone at the table's edge, the only one-step anchor description; EDGE has one.
+    edge = view(obj(0, "cup", "red", 0.0, 0.0), obj(1, "cup", "red", 0.1, 0.35), obj(2, "bowl", "red", -0.3, 0.0),
+                obj(3, "plate", "white", 0.3, 0.1))
+    chained = 0
+    for seed, v in itertools.product(range(4), (MUGS, edge)):
+        v.cache.clear()
+        rng = np.random.default_rng(seed)
+        for target in v.askable():
+            for any_category in (False, True):
+                for ref in anchored_refs(v, target, steps, rng, Phrasebook.get().phrased, any_category, wanted=8):
+                    program, values = run(ref, v)
+                    assert values[-1] == target.object_id and count_steps(program) == steps == ref.steps
+                    assert not is_degenerate(program, v)
+                    named = [a.object_id for rel in ref.relations for a in rel.anchors]
+                    named += [b.object_id for a in _chained(ref) for rel in a.relations for b in rel.anchors]
+                    assert target.object_id not in named and len(set(named)) == len(named)
+                    for a in _chained(ref):
+                        assert len(a.relations) == 1 and a is ref.relations[-1].anchors[-1]
+                        chained += 1
+    assert chained > 0
+
+
+def test_a_chained_description_reads_through_its_intermediate_object():
+    mug = Ref(1, "mug", "mug", "red", relations=(Relation("right_of", (Ref(4, "plate", "plate"),)),))
+    ref = Ref(0, "mug", "mug", relations=(Relation("left_of", (mug,)),))
+    program, values = run(ref)
+    assert values[-1] == 0 and count_steps(program) == ref.steps == 4
+    text, texts = Phrasebook.get().describe(ref, np.random.default_rng(0), MUGS)
+    assert texts[mug] in text and "plate" in texts[mug] and text.endswith(texts[mug])
+
+
 def test_count_measure_and_mark_operations():
     program = [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": "mug", "color": None},
                {"op": "count", "inputs": [1]}]
@@ -184,6 +227,39 @@ def test_families_on_a_hand_built_view():
             assert q["answer"].startswith("(")
         if q["family"] == "multiview":
             assert q["images"] == ["k0", "k"]
+
+
+def test_placement_shapes_add_up_to_their_step_count():
+    from refspatial.questions.placement import ANCHORS, SHAPES
+
+    for steps, shapes in SHAPES.items():
+        for kinds, anchor_steps in shapes:
+            assert sum(ANCHORS[k] for k in kinds) == len(anchor_steps)
+            assert sum(anchor_steps) + sum(k != "on_top" for k in kinds) == steps, (kinds, anchor_steps)
+
+
+def test_placement_around_a_chained_anchor():
+    """"A free spot in front of the mug that is by the front of the second mug": the anchor is found
+    by a relation of its own, the step count says so, and the answer lies in the free region."""
+    from refspatial.questions.placement import placement
+
+    found = 0
+    for seed in range(60):  # most draws pick anchors that leave no free room, or the plain two-sector shape
+        MUGS.cache.clear()
+        qa = placement({"self": MUGS}, SPEC, 4, np.random.default_rng(seed))
+        if qa is None or not any(n["op"] == "relate" for n in qa["steps"]):
+            continue
+        found += 1
+        assert qa["num_steps"] == 4 and execute(strip(qa["steps"]), MUGS) == [n["result"] for n in qa["steps"]]
+        free = rle_decode(qa["free_mask"])
+        for x, y in qa["answer_points"]:
+            assert free[int(y * MUGS.height), int(x * MUGS.width)]
+        anchor = qa["steps"][qa["steps"][-1]["inputs"][0]]
+        inner = qa["steps"][next(n for n in qa["steps"] if n["op"] == "relate")["inputs"][1]]
+        traced = [r["text"] for r in qa["reasoning_steps"]]
+        assert anchor["text"] in qa["question"] and traced.index(inner["text"]) < traced.index(anchor["text"])
+        assert traced[-1] == qa["ref"]
+    assert found >= 2
 
 
 def test_mask_points_come_from_the_whole_frames_erosion():

@@ -11,7 +11,7 @@ from .program import Node, execute
 from .refer import Ref, anchored_refs, compile_ref, simple_refs
 
 
-LONG_CHAIN = 4  # from this many steps on, a description may fall back to "the object ..."
+LONG_CHAIN = 3  # from this many steps on, a description may fall back to "the object ..."
 
 
 def describe_target(view: ViewFacts, target, steps: int, rng: np.random.Generator,

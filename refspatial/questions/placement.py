@@ -10,12 +10,19 @@ from ..relations.free_space import DIRECTIONS, solve
 from .common import QA, erosion_px, format_points, make_qa, sample_mask_points
 from .phrases import Phrasebook
 from .program import Node, ProgramError, execute
-from .refer import compile_ref, simple_refs
+from .refer import Ref, chained_refs, compile_ref, simple_refs
 
 OFFSETS_M = (0.05, 0.10, 0.15, 0.20)
-# Constraint shapes per step count (anchors + phrases; "on" adds no phrase).
-SHAPES = {1: (("on_top",),), 2: (("sector",), ("offset",)), 3: (("between",),),
-          4: (("sector", "sector"),), 5: (("between", "sector"),)}
+# Shapes per step count: the constraints, and each anchor's steps (1: named plainly; 2-4: picked by
+# relations of its own, "left of the object behind the book"). A step count is the anchors' steps
+# plus one phrase per constraint ("on" adds none). Two constraints rarely leave free room, so the
+# long shapes mostly chain their anchors instead. A chained anchor comes last ("between the cup
+# and the bowl left of the lamp"), where its clause cannot be read as the other anchor's.
+SHAPES = {1: ((("on_top",), (1,)),),
+          2: ((("sector",), (1,)), (("offset",), (1,))),
+          3: ((("between",), (1, 1)), (("sector",), (2,))),
+          4: ((("sector", "sector"), (1, 1)), (("sector",), (3,)), (("offset",), (3,))),
+          5: ((("between", "sector"), (1, 1, 1)), (("between",), (1, 3)), (("sector",), (4,)))}
 ANCHORS = {"on_top": 1, "sector": 1, "offset": 1, "between": 2}
 
 
@@ -24,23 +31,31 @@ def placement(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.rando
     shapes = SHAPES.get(steps, ())
     if not shapes:
         return None
-    shape = shapes[int(rng.integers(len(shapes)))]
-    need = sum(ANCHORS[k] for k in shape)
+    kinds, anchor_steps = shapes[int(rng.integers(len(shapes)))]
     candidates = [o for o in view.askable() if o.support is not None]
-    if "on_top" in shape:
+    if "on_top" in kinds:
         candidates = [o for o in candidates if o.is_support]
     else:
         candidates = [o for o in candidates if o.support <= TABLE]  # the table top or a shelf board
-    if len(candidates) < need:
+    if len(candidates) < len(anchor_steps):
         return None
-    chosen = [candidates[int(i)] for i in rng.choice(len(candidates), size=need, replace=False)]
-    if shape[0] == "between":  # "between A and B" and "between B and A" ask the same thing: one order
-        chosen[:2] = sorted(chosen[:2], key=lambda o: o.object_id)
-    refs = [simple_refs(view, o)[:1] for o in chosen]
+    chosen = [candidates[int(i)] for i in rng.choice(len(candidates), size=len(anchor_steps), replace=False)]
+    if kinds[0] == "between" and anchor_steps[0] == anchor_steps[1]:
+        chosen[:2] = sorted(chosen[:2], key=lambda o: o.object_id)  # "between A and B" is "between B and A"
+    others = sum(1 << o.object_id for o in chosen)
+    refs = [_anchor_ref(view, o, k, others, rng) for o, k in zip(chosen, anchor_steps)]
     if not all(refs):
         return None
-    constraints = _constraints(shape, rng)
-    return _question(views, spec, [r[0] for r in refs], constraints, rng)
+    return _question(views, spec, refs, _constraints(kinds, rng), rng)
+
+
+def _anchor_ref(view: ViewFacts, obj, steps: int, others: int, rng) -> Ref | None:
+    """A description of an anchor in ``steps`` steps that names none of the other anchors."""
+    if steps == 1:
+        refs = simple_refs(view, obj)[:1]
+    else:
+        refs = [r for r, named in chained_refs(view, obj, steps - 1, Phrasebook.get().phrased, rng) if not named & others]
+    return refs[0] if refs else None
 
 
 def _constraints(shape: tuple[str, ...], rng: np.random.Generator) -> list[dict]:

@@ -1,7 +1,9 @@
 """Referring expressions: describe one object so that exactly one object fits.
 
 Hierarchy (RefSpatial's captions): category, then colour, then an ordinal along
-the axis where the candidates spread most, then relations to anchor objects.
+the axis where the candidates spread most, then relations to anchor objects,
+which may themselves be picked by a relation ("the cup left of the object behind
+the book": RoboRefer's multi-step chains through an intermediate object).
 Every description is compiled to a program and executed; it is kept only if it
 picks the intended object and none of its relations is degenerate.
 """
@@ -9,6 +11,8 @@ picks the intended object and none of its relations is degenerate.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
+
 import numpy as np
 
 from ..relations import PREDICATES, ObjectFacts, ViewFacts
@@ -39,8 +43,8 @@ class Relation:
 
     @property
     def steps(self) -> int:
-        """Anchors plus the one phrase tying them to the subject."""
-        return len(self.anchors) + 1
+        """The phrase tying the anchors to the subject, plus each anchor's own steps."""
+        return 1 + sum(a.anchor_steps for a in self.anchors)
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,11 @@ class Ref:
     @property
     def steps(self) -> int:
         return max(1, sum(r.steps for r in self.relations))
+
+    @property
+    def anchor_steps(self) -> int:
+        """Steps as an anchor: the anchor object, plus the relations that pick it when it is chained."""
+        return 1 + sum(r.steps for r in self.relations)
 
 
 def compile_ref(ref: Ref, program: list[Node], texts: dict[Ref, str] | None = None, view: str = "self") -> int:
@@ -138,32 +147,49 @@ def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
     return [o for *_, o in sorted(options, key=lambda t: (t[0], t[1]))]
 
 
-# Part kinds and their step costs: unary 1 (phrase), binary 2 (anchor + phrase), between 3.
-COMBOS = {1: (("unary",),), 2: (("binary",),), 3: (("between",), ("binary", "unary")),
-          4: (("binary", "binary"),), 5: (("between", "binary"), ("binary", "binary", "unary"))}
+# Part kinds and their step counts: unary (a phrase: 1 step), binary (an anchor and a phrase: 2),
+# between (two anchors and a phrase: 3), and the chained kinds, a phrase tying the target to an
+# anchor that is itself picked by a relation: chain3 ("left of the bowl at the table's edge": 3),
+# chain4 ("left of the object behind the book": 4), chain5 (an anchor found in three steps: 5).
+# Chains carry most long descriptions: two independent relations, each needed, rarely fit among a
+# handful of objects. A chain goes last in its shape, so that no phrase after it can be read as
+# part of the anchor's description.
+COMBOS = {1: (("unary",),), 2: (("binary",),), 3: (("between",), ("binary", "unary"), ("chain3",)),
+          4: (("binary", "binary"), ("chain4",)),
+          5: (("between", "binary"), ("binary", "binary", "unary"), ("unary", "chain4"), ("binary", "chain3"),
+              ("chain5",))}
+CHAIN_ANCHOR_STEPS = {"chain3": 1, "chain4": 2, "chain5": 3}  # steps of the chained anchor's own relations
+# A chained anchor is picked by one relation: with two, "the mug left of the object behind the
+# book and near the bowl" would not say whether the mug or the object is near the bowl.
+ANCHOR_COMBOS = {1: (("unary",),), 2: (("binary",),), 3: (("between",),)}
+CHAIN_CHOICES = 4  # descriptions kept per chained anchor: some must avoid the target
 
 
 def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.random.Generator,
-                  phrased: set[str], any_category: bool = False) -> list[Ref]:
-    """Descriptions with relations whose step count is ``steps`` (1 to 5), in random order.
+                  phrased: set[str], any_category: bool = False, wanted: int = 2,
+                  as_anchor: bool = False) -> list[Ref]:
+    """Up to ``wanted`` descriptions with relations whose step count is ``steps`` (1 to 5), in random order.
 
     ``phrased`` names the predicates the phrasebook can word. With ``any_category``
-    the head is "the object" (identify-from-relations questions).
+    the head is "the object" (identify-from-relations questions). ``as_anchor``: the
+    description will be a chained anchor, so it has one relation (ANCHOR_COMBOS).
     """
-    parts = _parts(view, target, phrased)
     heads = [None] if any_category else [None, target.color]
     category = None if any_category else target.category
+    shapes = (ANCHOR_COMBOS if as_anchor else COMBOS).get(steps, ())
+    shapes = [shapes[int(k)] for k in rng.permutation(len(shapes))]  # no form crowds out the others
     out: list[Ref] = []
     for color in heads:
-        empty = ("no_fit", target.object_id, category, color, steps)
+        empty = ("no_fit", target.object_id, category, color, steps, as_anchor)
         if empty in view.cache:  # a search that found nothing is not worth repeating on this view
             continue
-        head, scored = _scored_parts(view, target, category, color, parts)
-        combos = _fitting_combinations(target.object_id, head, scored, COMBOS.get(steps, ()), rng)
+        head = _head(view, category, color)
+        combos = _fitting_combinations(target.object_id, head, shapes, rng,
+                                       lambda kind: _scored_parts(view, target, head, kind, phrased, rng))
         if not combos:
             view.cache[empty] = True
         # Choose the first part's predicate uniformly, so frequent relations do not crowd out rare ones.
-        while combos and len(out) < 2:
+        while combos and len(out) < wanted:
             names = sorted({c[0].rel.predicate for c in combos})
             name = names[int(rng.integers(len(names)))]
             same = [c for c in combos if c[0].rel.predicate == name]
@@ -183,8 +209,8 @@ class _Part:
     """A relation part with what it does to one head's candidates (precomputed for fast search)."""
 
     rel: Relation
-    # Two parts may be combined only if they share no anchor and no predicate.
-    anchors: int  # bit mask of the anchors' ids
+    # Two parts may be combined only if they share no object and no predicate.
+    objects: int  # bit mask of the ids of every object the part names, chained anchors included
     predicate: int  # index of the predicate
     # Candidate sets as bit masks (bit i: object i): the search tests up to ~10^5 combinations
     # per description, as whole arrays of masks at once.
@@ -192,42 +218,42 @@ class _Part:
     undecided: int  # candidates it cannot decide
 
 
-def _parts(view: ViewFacts, target: ObjectFacts, phrased: set[str]) -> dict[str, list[Relation]]:
-    """Relation parts that hold for the target, by kind (memoised per view and target)."""
-    key = ("parts", target.object_id)
-    if key not in view.cache:
-        anchors = {o.object_id: r[0] for o in view.askable() if o.object_id != target.object_id
-                   and (r := simple_refs(view, o)[:1])}
-        view.cache[key] = {
-            "unary": [Relation(n, ()) for n in relation_predicates(phrased, 1) if _holds(view, n, [target])],
-            "binary": _binary_parts(view, target, anchors, phrased),
-            "between": _between_parts(view, target, anchors) if "between" in phrased else [],
-        }
-    return view.cache[key]
+def _head(view: ViewFacts, category: str | None, color: str | None) -> int:
+    """The head's candidates as a bit mask; 0 when one of them is only partly visible, since
+    relations about a cut-off object cannot be decided safely."""
+    ids = [o.object_id for o in view.objects if o.status != "hidden"
+           and category in (None, o.category) and color in (None, o.color)]
+    if any(view.objects[i].status != "visible" for i in ids):
+        return 0
+    return sum(1 << i for i in ids)
 
 
-def _scored_parts(view: ViewFacts, target: ObjectFacts, category: str | None, color: str | None, parts):
-    """The head's candidates and, per kind, the parts that keep the target (memoised per view)."""
-    key = ("scored", target.object_id, category, color)
+def _scored_parts(view: ViewFacts, target: ObjectFacts, head: int, kind: str, phrased: set[str], rng) -> list[_Part]:
+    """The parts of one kind that keep the target among the head's candidates (memoised per view)."""
+    key = ("scored", target.object_id, head, kind)
     if key not in view.cache:
-        head, sets = _kept_sets(view, category, color, parts)
-        bit = 1 << target.object_id
-        scored = {kind: [_Part(r, sum(1 << a.object_id for a in r.anchors), _PREDICATE_INDEX[r.predicate], *kept)
-                         for r, kept in zip(rels, sets.get(kind, ())) if kept[0] & bit]
-                  for kind, rels in parts.items()}
-        view.cache[key] = (head, scored)
+        parts = []
+        if head:
+            ids = [i for i in range(head.bit_length()) if head >> i & 1]
+            for rel in _parts(view, target, kind, phrased, rng):
+                kept, undecided = _kept(view, rel, ids)
+                if kept >> target.object_id & 1:
+                    parts.append(_Part(rel, _named_objects_of((rel,)), _PREDICATE_INDEX[rel.predicate], kept, undecided))
+        view.cache[key] = parts
     return view.cache[key]
 
 
 _PREDICATE_INDEX = {name: k for k, name in enumerate(sorted(PREDICATES))}
 
 
-def _fitting_combinations(target: int, head: int, scored, shapes, rng) -> list[tuple[_Part, ...]]:
+def _fitting_combinations(target: int, head: int, shapes, rng,
+                          parts_of: Callable[[str], list[_Part]]) -> list[tuple[_Part, ...]]:
     """Up to COMBOS_WANTED combinations of parts with a wanted shape that, by the candidate sets,
-    pick only the target with no idle part, in random order (shapes in the order given)."""
+    pick only the target with no idle part, in random order (shapes in the order given). Parts are
+    asked for by kind only when a shape needs them: chained kinds cost a search per object."""
     found: list[tuple[_Part, ...]] = []
     for shape in shapes:
-        lists = [scored[kind] for kind in shape]
+        lists = [parts_of(kind) for kind in shape]
         size = int(np.prod([len(x) for x in lists]))
         if size == 0:
             continue
@@ -244,11 +270,11 @@ def _fitting_combinations(target: int, head: int, scored, shapes, rng) -> list[t
 
 def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
     """For every combination (one part from each list, in order), whether it is independent
-    (distinct anchors, distinct predicates) and, run in order, decides every remaining candidate,
+    (distinct objects, distinct predicates) and, run in order, decides every remaining candidate,
     keeps only the target, and has no idle part (dropping any one leaves more than the target).
     Returns a boolean array with one axis per list. ``target`` is the target's bit."""
     n = len(lists)
-    wide = max(head.bit_length(), *(p.kept.bit_length() | p.undecided.bit_length() | p.anchors.bit_length()
+    wide = max(head.bit_length(), *(p.kept.bit_length() | p.undecided.bit_length() | p.objects.bit_length()
                                     for x in lists for p in x)) > 63
     dtype = object if wide else np.uint64  # Python ints past 63 objects: slower, same logic
 
@@ -272,19 +298,72 @@ def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
         ok &= others != target
     for i in range(n):
         for j in range(i + 1, n):
-            ok &= ((column(i, "anchors") & column(j, "anchors")) == 0) & (column(i, "predicate") != column(j, "predicate"))
+            ok &= ((column(i, "objects") & column(j, "objects")) == 0) & (column(i, "predicate") != column(j, "predicate"))
     return ok
 
 
-def _kept_sets(view: ViewFacts, category: str | None, color: str | None, parts):
-    """The head's candidates, and per kind, for each of its parts in order (kept, undecided): the
-    candidates it keeps, and those it cannot decide (a program fails if one of those is still a
-    candidate when it runs). All three are bit masks over object ids."""
-    ids = [o.object_id for o in view.objects if o.status != "hidden"
-           and category in (None, o.category) and color in (None, o.color)]
-    if any(view.objects[i].status != "visible" for i in ids):
-        return 0, {}
-    return sum(1 << i for i in ids), {kind: [_kept(view, rel, ids) for rel in rels] for kind, rels in parts.items()}
+def _parts(view: ViewFacts, target: ObjectFacts, kind: str, phrased: set[str], rng) -> list[Relation]:
+    """Relation parts of one kind that hold for the target (memoised per view, target and kind)."""
+    key = ("parts", target.object_id, kind)
+    if key not in view.cache:
+        if kind == "unary":
+            parts = [Relation(n, ()) for n in relation_predicates(phrased, 1) if _holds(view, n, [target])]
+        elif kind == "binary":
+            parts = _binary_parts(view, target, _simple_anchors(view, target), phrased)
+        elif kind == "between":
+            parts = _between_parts(view, target, _simple_anchors(view, target)) if "between" in phrased else []
+        else:
+            anchors = _chained_anchors(view, target, CHAIN_ANCHOR_STEPS[kind], phrased, rng)
+            parts = _binary_parts(view, target, anchors, phrased)
+        view.cache[key] = parts
+    return view.cache[key]
+
+
+def _simple_anchors(view: ViewFacts, target: ObjectFacts) -> dict[int, Ref]:
+    return {o.object_id: r[0] for o in view.askable() if o.object_id != target.object_id
+            and (r := simple_refs(view, o)[:1])}
+
+
+def _chained_anchors(view: ViewFacts, target: ObjectFacts, steps: int, phrased: set[str], rng) -> dict[int, Ref]:
+    """Each other object's description by relations in ``steps`` steps that does not name the target."""
+    out = {}
+    for o in view.askable():
+        if o.object_id != target.object_id:
+            usable = [r for r, named in chained_refs(view, o, steps, phrased, rng) if not named >> target.object_id & 1]
+            if usable:
+                out[o.object_id] = usable[0]
+    return out
+
+
+def chained_refs(view: ViewFacts, obj: ObjectFacts, steps: int, phrased: set[str], rng) -> list[tuple[Ref, int]]:
+    """Descriptions of an object by relations in ``steps`` steps (1 to 3), to serve as a chained
+    anchor, each with the bit mask of the other objects it names (memoised per view).
+
+    A description with its own category ("the bowl behind the book") is preferred; where the
+    category alone already picks the object, the relation would be idle, so the head becomes
+    "the object". Each is one unchained relation (ANCHOR_COMBOS), so chains never nest deeper
+    than one link.
+    """
+    key = ("chained", obj.object_id, steps)
+    if key not in view.cache:
+        refs = (anchored_refs(view, obj, steps, rng, phrased, wanted=CHAIN_CHOICES, as_anchor=True)
+                or anchored_refs(view, obj, steps, rng, phrased, any_category=True, wanted=CHAIN_CHOICES,
+                                 as_anchor=True))
+        view.cache[key] = [(r, mentions(r)) for r in refs]
+    return view.cache[key]
+
+
+def mentions(ref: Ref) -> int:
+    """Bit mask of the objects a description names besides its own (its anchors, down the chain)."""
+    return _named_objects_of(ref.relations)
+
+
+def _named_objects_of(relations: tuple[Relation, ...]) -> int:
+    mask = 0
+    for rel in relations:
+        for a in rel.anchors:
+            mask |= 1 << a.object_id | _named_objects_of(a.relations)
+    return mask
 
 
 def _kept(view: ViewFacts, rel: Relation, ids: list[int]) -> tuple[int, int]:
