@@ -79,13 +79,16 @@ def _balance(stats: dict) -> str:
     rows = "".join(
         f"<tr class={b['verdict'].replace(' ', '-')}><td>{html.escape(b['check'])}</td>"
         f"<td>{html.escape(str(b['item']))}</td><td>{b['count']} / {b['total']}</td>"
-        f"<td>{b['share']:.1%}</td><td>{b['lower']:.1%}</td><td>{b['threshold']:.0%}</td>"
+        f"<td>{b['share']:.1%}</td><td>{b['lower']:.1%} - {b['upper']:.1%}</td><td>{b['threshold']:.0%}</td>"
         f"<td>{html.escape(b['verdict'])}</td></tr>" for b in stats.get("balance", []))
     return ("<h2>Balance warnings</h2>\n"
-            f"<ul class=warnings>{items}</ul>\n<table><tr><th>check</th><th>most common</th><th>count</th>"
-            "<th>share</th><th>95% lower bound</th><th>threshold</th><th>verdict</th></tr>"
-            f"{rows}</table>\n<p class=note>A check warns when the lower bound of the share is above the "
-            "threshold (dominance beyond sampling noise); <i>watch</i> means above it but within noise.</p>")
+            f"<ul class=warnings>{items}</ul>\n<table><tr><th>check</th><th>item</th><th>count</th>"
+            "<th>share</th><th>95% interval</th><th>threshold</th><th>verdict</th></tr>"
+            f"{rows}</table>\n<p class=note>A dominance check (the most common predicate, answer or image "
+            "cell) warns when the interval's lower end is above its threshold; the step check (the step "
+            "count furthest below the recipe's share for it) warns when the upper end is below half that "
+            "share. Either is beyond sampling noise then; <i>watch</i> means past the threshold but within "
+            "noise.</p>")
 
 
 def _table(stats: dict, key: str, title: str) -> str:

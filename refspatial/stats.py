@@ -15,6 +15,7 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from .records import ShardReader
 
@@ -38,7 +39,11 @@ ANSWER_SHARE_MAX = 0.5 + ANSWER_MARGIN  # the two-option case, the common one
 # 11 %): tabletop framing centres the objects, so the middle cell is allowed 3x its share,
 # but beyond that "point at the centre" becomes a winning strategy on pointing benchmarks.
 REGION_SHARE_MAX = 0.35
-# A check fires only when the dominance is beyond sampling noise: the lower end of the 95 %
+# A step count of the described questions below half the share the recipe asks for: the data no
+# longer follows the recipe, and a model sees too few long chains to learn them. Half, not all,
+# because small scenes cannot hold every chain (three objects leave no five-step description).
+STEP_SHARE_MIN_RATIO = 0.5
+# A check fires only when the dominance (or shortfall) is beyond sampling noise: the lower end of the 95 %
 # Wilson interval of the share must exceed the threshold. A 12-scene smoke run holds ~40
 # choice answers, where 63 % for one letter is still within chance of a fair coin.
 CONFIDENCE_Z = 1.96
@@ -61,6 +66,7 @@ class _Tally:
     def __init__(self) -> None:
         self.c: dict[str, Counter] = {name: Counter() for name in _COUNTERS}
         self.answers_by_kind: dict[str, Counter] = {}
+        self.steps_by_family: dict[str, Counter] = {}
         self.answer_options: dict[str, int] = {}  # kind -> most options one of its questions offers
         self.points = np.zeros((HEATMAP_BINS, HEATMAP_BINS), dtype=np.int64)  # rows = y, cols = x
         self.visible_share = np.zeros(len(VISIBLE_SHARE_EDGES_PCT) - 1, dtype=np.int64)
@@ -86,6 +92,7 @@ class _Tally:
         self.c["families"][qa["family"]] += 1
         self.c["kinds"][qa["kind"]] += 1
         self.c["steps"][qa["num_steps"]] += 1
+        self.steps_by_family.setdefault(qa["family"], Counter())[qa["num_steps"]] += 1
         self.c["question_words"][len(qa["prompt"].split())] += 1
         for p in qa["predicates"]:
             self._predicate("qa", p)
@@ -147,6 +154,8 @@ def collect(*roots: Path) -> dict:
         "qa_per_record": round(manifest["qa"] / manifest["records"], 2) if manifest["records"] else 0.0,
         **{name: _sorted(counter) for name, counter in tally.c.items()},
         "answers_by_kind": {k: _sorted(v) for k, v in sorted(tally.answers_by_kind.items())},
+        "steps_by_family": {k: _by_number(_sorted(v)) for k, v in sorted(tally.steps_by_family.items())},
+        "steps_wanted": wanted_steps(manifests),
         "answer_options": dict(sorted(tally.answer_options.items())),
         "visible_share": {"edges_pct": list(VISIBLE_SHARE_EDGES_PCT), "counts": tally.visible_share.tolist()},
         "answer_points": _points_summary(tally.points),
@@ -176,6 +185,19 @@ def merge_manifests(manifests: list[dict]) -> dict:
     }
 
 
+def wanted_steps(manifests: list[dict]) -> dict[str, float] | None:
+    """The recipe's step mix, normalised, keyed like the step counters; None when the folders'
+    recipes ask for different mixes, or a manifest predates the resolved recipe."""
+    mixes = []
+    for m in manifests:
+        steps = (yaml.safe_load(m.get("recipe_resolved_yaml") or "{}").get("questions") or {}).get("steps")
+        if not steps:
+            return None
+        total = sum(steps.values())
+        mixes.append({str(k): round(v / total, 4) for k, v in sorted(steps.items())})
+    return mixes[0] if all(mix == mixes[0] for mix in mixes) else None
+
+
 def rejections_by_recipe(manifest: dict) -> dict[str, dict]:
     """Rejected scenes per recipe. A manifest holds one recipe, so this is one entry keyed by
     it; the shape lets a report lay several datasets' rows side by side."""
@@ -201,14 +223,14 @@ def _by_number(counts: dict) -> dict:
 # --- balance --------------------------------------------------------------------------------------
 
 
-def wilson_lower(k: int, n: int, z: float = CONFIDENCE_Z) -> float:
-    """Lower end of the Wilson score interval of the share k/n (0 when n is 0)."""
+def wilson_interval(k: int, n: int, z: float = CONFIDENCE_Z) -> tuple[float, float]:
+    """The Wilson score interval of the share k/n ((0, 1) when n is 0)."""
     if n == 0:
-        return 0.0
+        return 0.0, 1.0
     p = k / n
     centre = p + z * z / (2 * n)
     spread = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return (centre - spread) / (1 + z * z / n)
+    return (centre - spread) / (1 + z * z / n), (centre + spread) / (1 + z * z / n)
 
 
 def _check(check: str, what: str, counts: dict[str, int], threshold: float) -> dict:
@@ -219,15 +241,47 @@ def _check(check: str, what: str, counts: dict[str, int], threshold: float) -> d
     """
     n = sum(counts.values())
     if n == 0:
-        return {"check": check, "item": None, "count": 0, "total": 0, "share": 0.0, "lower": 0.0,
-                "threshold": threshold, "verdict": "no data", "message": f"{what}: no data"}
+        return _no_data(check, what, threshold)
     item, k = max(counts.items(), key=lambda kv: (kv[1], kv[0]))
-    share, lower = k / n, wilson_lower(k, n)
+    share, (lower, upper) = k / n, wilson_interval(k, n)
     verdict = "warn" if lower > threshold else ("watch" if share > threshold else "ok")
     message = (f"{what}: {item} holds {share:.0%} ({k} of {n}; 95% lower bound {lower:.0%}), "
                f"threshold {threshold:.0%}")
-    return {"check": check, "item": item, "count": k, "total": n, "share": round(share, 4),
-            "lower": round(lower, 4), "threshold": threshold, "verdict": verdict, "message": message}
+    return _row(check, item, k, n, lower, upper, threshold, verdict, message)
+
+
+def _step_check(stats: dict) -> dict:
+    """The step count of the described questions furthest below the recipe's share for it.
+    "warn": even the share's 95 % upper bound is under STEP_SHARE_MIN_RATIO of the wanted share."""
+    from .questions.generate import STEPPED_FAMILIES
+
+    what = "step counts of described questions"
+    counts: Counter = Counter()
+    for family in STEPPED_FAMILIES:
+        counts.update(stats.get("steps_by_family", {}).get(family, {}))
+    wanted = {k: w for k, w in stats["steps_wanted"].items() if w > 0}
+    n = sum(counts.values())
+    if n == 0:
+        return _no_data("steps", what, 0.0)
+    item = min(wanted, key=lambda s: (counts[s] / n / wanted[s], s))
+    k, threshold = counts[item], round(STEP_SHARE_MIN_RATIO * wanted[item], 4)
+    share, (lower, upper) = k / n, wilson_interval(k, n)
+    verdict = "warn" if upper < threshold else ("watch" if share < threshold else "ok")
+    message = (f"{what}: {item} steps hold {share:.0%} ({k} of {n}; 95% upper bound {upper:.0%}) where the "
+               f"recipe asks {wanted[item]:.0%}, threshold {threshold:.0%}")
+    return _row("steps", f"{item} steps", k, n, lower, upper, threshold, verdict, message)
+
+
+def _row(check: str, item, k: int, n: int, lower: float, upper: float, threshold: float, verdict: str,
+         message: str) -> dict:
+    return {"check": check, "item": item, "count": k, "total": n, "share": round(k / n, 4),
+            "lower": round(lower, 4), "upper": round(upper, 4), "threshold": threshold, "verdict": verdict,
+            "message": message}
+
+
+def _no_data(check: str, what: str, threshold: float) -> dict:
+    return {"check": check, "item": None, "count": 0, "total": 0, "share": 0.0, "lower": 0.0, "upper": 1.0,
+            "threshold": threshold, "verdict": "no data", "message": f"{what}: no data"}
 
 
 def answer_threshold(stats: dict, kind: str) -> float:
@@ -245,6 +299,8 @@ def balance_checks(stats: dict) -> list[dict]:
     cells = {f"{r}{c} cell": grid3[i][j] for i, r in enumerate(("top", "middle", "bottom"))
              for j, c in enumerate(("-left", "-centre", "-right"))}
     rows.append(_check("region", "answer points per 3x3 image cell", cells, REGION_SHARE_MAX))
+    if stats.get("steps_wanted"):
+        rows.append(_step_check(stats))
     return rows
 
 

@@ -12,9 +12,11 @@ from refspatial.recipe import load_recipe
 from refspatial.report import ReportError, render_html, write_report
 from refspatial.shards import generate
 from refspatial.stats import (ANSWER_SHARE_MAX, PREDICATE_SHARE_MAX, REGION_SHARE_MAX, balance_checks, collect,
-                              load_manifest)
+                              load_manifest, wanted_steps)
 
 from conftest import TINY
+
+TINY_STEPS = load_recipe(str(TINY))["questions"]["steps"]
 
 
 @pytest.fixture(scope="module")
@@ -121,6 +123,40 @@ def test_small_samples_are_watched_not_warned():
     rows = balance_checks(_crafted({}, {"pick": {"(A)": 14, "(B)": 24}}, [[0] * 3] * 3))
     verdicts = {b["check"]: b["verdict"] for b in rows}
     assert verdicts == {"predicate": "no data", "answer:pick": "watch", "region": "no data"}
+
+
+WANTED = {"1": 0.2, "2": 0.2, "3": 0.2, "4": 0.2, "5": 0.2}
+
+
+def _steps(by_family: dict) -> dict:
+    return {**_crafted({}, {}, [[0] * 3] * 3), "steps_by_family": by_family, "steps_wanted": WANTED}
+
+
+def test_step_check_warns_when_a_wanted_step_count_falls_far_short():
+    """Five-step questions at 4 % where the recipe asks 20 %: below half of it, beyond noise. The
+    families that ignore the step count (quantitative: always one step) are not counted."""
+    short = _steps({"location": {"1": 300, "2": 300, "3": 200, "4": 160, "5": 40}, "quantitative": {"1": 5000}})
+    row = next(b for b in balance_checks(short) if b["check"] == "steps")
+    assert (row["item"], row["count"], row["total"], row["verdict"]) == ("5 steps", 40, 1000, "warn")
+    assert row["threshold"] == pytest.approx(0.1) and row["upper"] < 0.1 < WANTED["5"]
+    even = _steps({"location": {"1": 100, "2": 100, "3": 100}, "placement": {"4": 100, "5": 70}})
+    assert next(b for b in balance_checks(even) if b["check"] == "steps")["verdict"] == "ok"
+    few = _steps({"identify": {"1": 10, "2": 10, "3": 10, "4": 10, "5": 2}})  # 5 % of 42: within noise
+    assert next(b for b in balance_checks(few) if b["check"] == "steps")["verdict"] == "watch"
+
+
+def test_wanted_steps_come_from_the_recipes_and_must_agree(dataset):
+    manifest = load_manifest(dataset)
+    mix = wanted_steps([manifest])
+    assert mix == {str(k): pytest.approx(w / sum(TINY_STEPS.values())) for k, w in TINY_STEPS.items()}
+    other = {**manifest, "recipe_resolved_yaml": "questions:\n  steps: {1: 1}\n"}
+    assert wanted_steps([manifest, manifest]) == mix and wanted_steps([manifest, other]) is None
+    assert wanted_steps([{k: v for k, v in manifest.items() if k != "recipe_resolved_yaml"}]) is None
+
+
+def test_steps_by_family_add_up(stats):
+    assert sum(sum(c.values()) for c in stats["steps_by_family"].values()) == stats["qa"]
+    assert any(b["check"] == "steps" for b in stats["balance"])
 
 
 def test_warnings_reach_the_page(stats, dataset):

@@ -34,6 +34,10 @@ FAMILIES: dict[str, Callable[[dict[str, ViewFacts], dict, int, np.random.Generat
     "visual_choice": visual_choice,
 }
 
+# Families that draw every question at the recipe's wanted step count; the step audit compares
+# their mix with the recipe's (choice, quantitative and multi-view's camera-move half ignore it).
+STEPPED_FAMILIES = ("location", "identify", "placement", "visual_choice")
+
 
 def questions_for_view(view: ViewFacts, spec: dict, rng: np.random.Generator, key: str,
                        other: tuple[str, ViewFacts] | None = None) -> list[QA]:
