@@ -31,7 +31,8 @@ VISIBLE_SHARE_EDGES_PCT = (0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 
 # 31 and still 2.4x among six, so a model could lean on the prior instead of reading the image.
 PREDICATE_SHARE_MAX = 0.40
 # One answer letter of a multiple-choice kind more than 10 points above its fair share (60 % of
-# a yes/no or (A)/(B) kind, 35 % of a four-box visual choice): always answering it would beat
+# a yes/no or (A)/(B) kind, 35 % of a four-box visual choice, about 41 % where three and four
+# boxes mix as the recipes draw them): always answering it would beat
 # chance by that much with no spatial reasoning. CLEVR rejection-samples for the same reason.
 ANSWER_MARGIN = 0.10
 ANSWER_SHARE_MAX = 0.5 + ANSWER_MARGIN  # the two-option case, the common one
@@ -68,6 +69,7 @@ class _Tally:
         self.answers_by_kind: dict[str, Counter] = {}
         self.steps_by_family: dict[str, Counter] = {}
         self.answer_options: dict[str, int] = {}  # kind -> most options one of its questions offers
+        self.option_counts: dict[str, Counter] = {}  # kind -> {number of options: questions}
         self.points = np.zeros((HEATMAP_BINS, HEATMAP_BINS), dtype=np.int64)  # rows = y, cols = x
         self.visible_share = np.zeros(len(VISIBLE_SHARE_EDGES_PCT) - 1, dtype=np.int64)
         self.families = predicate_families()
@@ -101,6 +103,7 @@ class _Tally:
             self.c["answers"][qa["answer"]] += 1
             self.answers_by_kind.setdefault(qa["kind"], Counter())[answer_label(qa)] += 1
             self.answer_options[qa["kind"]] = max(self.answer_options.get(qa["kind"], 0), options)
+            self.option_counts.setdefault(qa["kind"], Counter())[options] += 1
         for x, y in qa["answer_points"]:
             col = min(max(int(x * HEATMAP_BINS), 0), HEATMAP_BINS - 1)
             row = min(max(int(y * HEATMAP_BINS), 0), HEATMAP_BINS - 1)
@@ -157,6 +160,7 @@ def collect(*roots: Path) -> dict:
         "steps_by_family": {k: _by_number(_sorted(v)) for k, v in sorted(tally.steps_by_family.items())},
         "steps_wanted": wanted_steps(manifests),
         "answer_options": dict(sorted(tally.answer_options.items())),
+        "answer_option_counts": {k: _by_number(_sorted(v)) for k, v in sorted(tally.option_counts.items())},
         "visible_share": {"edges_pct": list(VISIBLE_SHARE_EDGES_PCT), "counts": tally.visible_share.tolist()},
         "answer_points": _points_summary(tally.points),
     }
@@ -267,9 +271,10 @@ def _step_check(stats: dict) -> dict:
     k, threshold = counts[item], round(STEP_SHARE_MIN_RATIO * wanted[item], 4)
     share, (lower, upper) = k / n, wilson_interval(k, n)
     verdict = "warn" if upper < threshold else ("watch" if share < threshold else "ok")
-    message = (f"{what}: {item} steps hold {share:.0%} ({k} of {n}; 95% upper bound {upper:.0%}) where the "
+    label = f"{item} step" + ("" if item == "1" else "s")
+    message = (f"{what}: {label} hold {share:.0%} ({k} of {n}; 95% upper bound {upper:.0%}) where the "
                f"recipe asks {wanted[item]:.0%}, threshold {threshold:.0%}")
-    return _row("steps", f"{item} steps", k, n, lower, upper, threshold, verdict, message)
+    return _row("steps", label, k, n, lower, upper, threshold, verdict, message)
 
 
 def _row(check: str, item, k: int, n: int, lower: float, upper: float, threshold: float, verdict: str,
@@ -285,9 +290,15 @@ def _no_data(check: str, what: str, threshold: float) -> dict:
 
 
 def answer_threshold(stats: dict, kind: str) -> float:
-    """Fair share of one letter plus ANSWER_MARGIN; a kind of unknown option count counts as two."""
-    options = max(stats.get("answer_options", {}).get(kind, 2), 2)
-    return round(1 / options + ANSWER_MARGIN, 4)
+    """Fair share of the first letter plus ANSWER_MARGIN. Under uniform letters, (A) is the answer
+    of 1/k of the questions with k options, so a kind mixing three and four boxes has a fair
+    share between 1/4 and 1/3. Without option counts, the most options (default two) decide."""
+    counts = {int(k): n for k, n in stats.get("answer_option_counts", {}).get(kind, {}).items() if int(k) >= 2}
+    if counts:
+        fair = sum(n / k for k, n in counts.items()) / sum(counts.values())
+    else:
+        fair = 1 / max(stats.get("answer_options", {}).get(kind, 2), 2)
+    return round(fair + ANSWER_MARGIN, 4)
 
 
 def balance_checks(stats: dict) -> list[dict]:

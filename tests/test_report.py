@@ -11,8 +11,8 @@ from refspatial.assets import load_catalogue
 from refspatial.recipe import load_recipe
 from refspatial.report import ReportError, render_html, write_report
 from refspatial.shards import generate
-from refspatial.stats import (ANSWER_SHARE_MAX, PREDICATE_SHARE_MAX, REGION_SHARE_MAX, balance_checks, collect,
-                              load_manifest, wanted_steps)
+from refspatial.stats import (ANSWER_SHARE_MAX, PREDICATE_SHARE_MAX, REGION_SHARE_MAX, answer_threshold,
+                              balance_checks, collect, load_manifest, wanted_steps)
 
 from conftest import TINY
 
@@ -116,6 +116,17 @@ def test_answer_threshold_follows_the_option_count():
     assert row["threshold"] == pytest.approx(0.25 + ANSWER_SHARE_MAX - 0.5) and row["verdict"] == "warn"
     two = {**four, "answer_options": {"box": 2}}
     assert next(b for b in balance_checks(two) if b["check"] == "answer:box")["verdict"] == "ok"
+
+
+def test_answer_threshold_weighs_mixed_option_counts():
+    """Visual choice draws three boxes 70 % of the time and four otherwise: (A) is fairly the
+    answer of 0.7/3 + 0.3/4 = 31 % of questions, so 22 of 43 is within noise of that plus the
+    margin, where the four-option threshold (35 %) would have warned."""
+    mixed = {**_crafted({}, {"box": {"(A)": 8, "(B)": 11, "(C)": 22, "(D)": 2}}, [[0] * 3] * 3),
+             "answer_options": {"box": 4}, "answer_option_counts": {"box": {"3": 70, "4": 30}}}
+    assert answer_threshold(mixed, "box") == pytest.approx(0.7 / 3 + 0.3 / 4 + ANSWER_SHARE_MAX - 0.5, abs=1e-4)
+    assert next(b for b in balance_checks(mixed) if b["check"] == "answer:box")["verdict"] == "watch"
+    assert answer_threshold({**mixed, "answer_option_counts": {}}, "box") == pytest.approx(0.35)
 
 
 def test_small_samples_are_watched_not_warned():
