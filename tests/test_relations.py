@@ -122,6 +122,17 @@ def test_known_relation(name, objects, expected):
     assert PREDICATES[name](SCENE, *objects) is expected
 
 
+def test_between_holds_only_on_one_level():
+    """On a shelf, a vase on the board above the mug and the cup is not between them, whatever
+    the plan view; the apple on the plate rests on the table through it, so it is; an object
+    whose support is unknown is left to the geometry."""
+    assert PREDICATES["between"](SCENE, APPLE, MUG, CUP) is True
+    vase = obj(8, "vase", "white", 0.00, 0.00, size=0.06, height=0.12, z=0.38, support=-2)  # board 0
+    lost = obj(8, "vase", "white", 0.00, 0.00, size=0.06, height=0.12, z=0.38, support=None)
+    assert PREDICATES["between"](view(*SCENE.objects, vase), vase, MUG, CUP) is False
+    assert PREDICATES["between"](view(*SCENE.objects, lost), lost, MUG, CUP) is True
+
+
 def test_known_measures():
     P = PREDICATES
     d = P["distance_between"](SCENE, MUG, CUP)

@@ -72,13 +72,19 @@ def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 @predicate("between", family="between", arity=3, frame="world")
 def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Verdict:
-    """A lies in the ground-plane corridor joining B and C.
+    """A lies in the ground-plane corridor joining B and C, on the same level as both.
 
     With t the position of A's centre along the segment B->C (0 at B, 1 at C) and
     d its distance from that line: True when 0.2 <= t <= 0.8 and d is within half
     of the wider anchor's narrow footprint side; False when t < 0, t > 1 or d
     exceeds that by 5 cm; undecided otherwise, and when B and C are < 10 cm apart.
+    False when the three rest on different levels (the table top, a shelf board:
+    what they stand on, followed down through stacks), as on a shelf a bear on the
+    top board is not "between" two things on the board below whatever the plan view.
     """
+    levels = {resting_level(v, o) for o in (a, b, c)}
+    if len(levels) > 1 and None not in levels:
+        return False
     p, q, r = (o.center_world_m[:2] for o in (a, b, c))
     seg = r - q
     length = float(np.linalg.norm(seg))
@@ -91,6 +97,17 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
         return True
     if t < 0 or t > 1 or d > half_width + BETWEEN_OUTSIDE_M:
         return False
+    return None
+
+
+def resting_level(v: ViewFacts, o: ObjectFacts) -> int | None:
+    """The table top (TABLE) or shelf board (-(k + 2)) an object rests on, through any stack of
+    objects beneath it; None when some support in the chain is unknown."""
+    support = o.support
+    for _ in range(len(v.objects)):  # a chain longer than the objects would be a cycle
+        if support is None or support < 0:
+            return support
+        support = v.objects[support].support
     return None
 
 
