@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from refspatial.relations import PREDICATES, TABLE, computed_relations
+from refspatial.relations import PREDICATES, TABLE, ObjectFacts, computed_relations
 from refspatial.relations.directional import MIN_MARGIN_M
 from refspatial.scene import Cavity
 
@@ -122,15 +122,22 @@ def test_known_relation(name, objects, expected):
     assert PREDICATES[name](SCENE, *objects) is expected
 
 
-def test_between_holds_only_on_one_level():
+def test_plan_view_relations_respect_shelf_levels():
     """On a shelf, a vase on the board above the mug and the cup is not between them, whatever
-    the plan view; the apple on the plate rests on the table through it, so it is; an object
-    whose support is unknown is left to the geometry."""
+    the plan view, nor near the mug it stands 28 cm over; the apple on the plate rests on the
+    table through it, so it is between them; an object whose support is unknown is left to
+    the plan view."""
     assert PREDICATES["between"](SCENE, APPLE, MUG, CUP) is True
-    vase = obj(8, "vase", "white", 0.00, 0.00, size=0.06, height=0.12, z=0.38, support=-2)  # board 0
-    lost = obj(8, "vase", "white", 0.00, 0.00, size=0.06, height=0.12, z=0.38, support=None)
-    assert PREDICATES["between"](view(*SCENE.objects, vase), vase, MUG, CUP) is False
-    assert PREDICATES["between"](view(*SCENE.objects, lost), lost, MUG, CUP) is True
+
+    def vase(x: float, support: int | None) -> ObjectFacts:  # on shelf board 0 (support -2), 38 cm up
+        return obj(8, "vase", "white", x, 0.00, size=0.06, height=0.12, z=0.38, support=support)
+
+    for x, relation, objects in ((0.0, "between", (MUG, CUP)), (-0.30, "near", (MUG,))):
+        high, lost = vase(x, -2), vase(x, None)
+        assert PREDICATES[relation](view(*SCENE.objects, high), high, *objects) is False
+        assert PREDICATES[relation](view(*SCENE.objects, lost), lost, *objects) is True
+    high = vase(-0.30, -2)
+    assert PREDICATES["far"](view(*SCENE.objects, high), MUG, high) is True
 
 
 def test_known_measures():

@@ -82,8 +82,7 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
     what they stand on, followed down through stacks), as on a shelf a bear on the
     top board is not "between" two things on the board below whatever the plan view.
     """
-    levels = {resting_level(v, o) for o in (a, b, c)}
-    if len(levels) > 1 and None not in levels:
+    if v.on_other_levels(a, b, c):
         return False
     p, q, r = (o.center_world_m[:2] for o in (a, b, c))
     seg = r - q
@@ -97,17 +96,6 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
         return True
     if t < 0 or t > 1 or d > half_width + BETWEEN_OUTSIDE_M:
         return False
-    return None
-
-
-def resting_level(v: ViewFacts, o: ObjectFacts) -> int | None:
-    """The table top (TABLE) or shelf board (-(k + 2)) an object rests on, through any stack of
-    objects beneath it; None when some support in the chain is unknown."""
-    support = o.support
-    for _ in range(len(v.objects)):  # a chain longer than the objects would be a cycle
-        if support is None or support < 0:
-            return support
-        support = v.objects[support].support
     return None
 
 

@@ -123,6 +123,21 @@ class ViewFacts:
     def askable(self) -> list[ObjectFacts]:
         return [o for o in self.objects if o.status == "visible"]
 
+    def resting_level(self, o: ObjectFacts) -> int | None:
+        """The table top (TABLE) or shelf board (-(k + 2)) an object rests on, through any stack
+        of objects beneath it; None when some support in the chain is unknown."""
+        support = o.support
+        for _ in range(len(self.objects)):  # a chain longer than the objects would be a cycle
+            if support is None or support < 0:
+                return support
+            support = self.objects[support].support
+        return None
+
+    def on_other_levels(self, *objs: ObjectFacts) -> bool:
+        """Known to rest on different levels (a shelf's boards): plan-view relations do not hold across them."""
+        levels = {self.resting_level(o) for o in objs}
+        return len(levels) > 1 and None not in levels
+
 
 def view_facts(scene: Scene, view: View) -> ViewFacts:
     R = view.T_world_cam[:3, :3]

@@ -59,6 +59,10 @@ def thinner_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 def _gap_and_scale(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, float]:
     gap = v.footprint_gap(a, b)
+    if v.on_other_levels(a, b):  # a cup under the vase on the board above is not near it
+        (a_lo, a_hi), (b_lo, b_hi) = a.aabb_world_m[:, 2], b.aabb_world_m[:, 2]
+        lift = max(0.0, float(a_lo - b_hi), float(b_lo - a_hi))
+        gap = float(np.hypot(gap, lift))
     scale = (float(a.footprint_m.max()) + float(b.footprint_m.max())) / 2
     return gap, scale
 
@@ -68,7 +72,8 @@ def near(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """The ground gap between footprints is small for the objects' size.
 
     True: gap <= max(5 cm, 0.5 x mean footprint size). False: gap >= max(25 cm,
-    2 x mean footprint size). Undecided in between.
+    2 x mean footprint size). Undecided in between. For objects on different levels
+    (shelf boards) the gap includes the height between their boxes.
     """
     gap, scale = _gap_and_scale(v, a, b)
     if gap <= max(NEAR_GAP[0], NEAR_GAP[1] * scale):
