@@ -32,8 +32,8 @@ VISIBLE_SHARE_EDGES_PCT = (0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 
 PREDICATE_SHARE_MAX = 0.40
 # One answer letter of a multiple-choice kind more than 10 points above its fair share (60 % of
 # a yes/no or (A)/(B) kind, 35 % of a four-box visual choice, about 41 % where three and four
-# boxes mix as the recipes draw them): always answering it would beat
-# chance by that much with no spatial reasoning. CLEVR rejection-samples for the same reason.
+# boxes mix as the recipes draw them): always answering it would beat chance by that much with
+# no spatial reasoning. CLEVR rejection-samples for the same reason.
 ANSWER_MARGIN = 0.10
 ANSWER_SHARE_MAX = 0.5 + ANSWER_MARGIN  # the two-option case, the common one
 # One cell of a 3x3 grid over the image holding over 35 % of answer points (a fair share is
@@ -44,9 +44,10 @@ REGION_SHARE_MAX = 0.35
 # longer follows the recipe, and a model sees too few long chains to learn them. Half, not all,
 # because small scenes cannot hold every chain (three objects leave no five-step description).
 STEP_SHARE_MIN_RATIO = 0.5
-# A check fires only when the dominance (or shortfall) is beyond sampling noise: the lower end of the 95 %
-# Wilson interval of the share must exceed the threshold. A 12-scene smoke run holds ~40
-# choice answers, where 63 % for one letter is still within chance of a fair coin.
+# A check fires only beyond sampling noise: the 95 % Wilson interval of the share must lie
+# wholly past the threshold (its lower end above a dominance threshold, its upper end below a
+# shortfall one). A 12-scene smoke run holds ~40 choice answers, where 63 % for one letter is
+# still within chance of a fair coin.
 CONFIDENCE_Z = 1.96
 
 _COUNTERS = ("qa_predicates", "relation_predicates", "qa_predicate_families", "relation_predicate_families",

@@ -54,7 +54,8 @@ def _anchor_ref(view: ViewFacts, obj, steps: int, others: int, rng) -> Ref | Non
     if steps == 1:
         refs = simple_refs(view, obj)[:1]
     else:
-        refs = [r for r, named in chained_refs(view, obj, steps - 1, Phrasebook.get().phrased, rng) if not named & others]
+        chained = chained_refs(view, obj, steps - 1, Phrasebook.get().phrased, rng)
+        refs = [r for r, named in chained if not named & others]
     return refs[0] if refs else None
 
 

@@ -238,7 +238,8 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, head: int, kind: str, ph
             for rel in _parts(view, target, kind, phrased, rng):
                 kept, undecided = _kept(view, rel, ids)
                 if kept >> target.object_id & 1:
-                    parts.append(_Part(rel, _named_objects_of((rel,)), _PREDICATE_INDEX[rel.predicate], kept, undecided))
+                    named = _named_objects((rel,))
+                    parts.append(_Part(rel, named, _PREDICATE_INDEX[rel.predicate], kept, undecided))
         view.cache[key] = parts
     return view.cache[key]
 
@@ -349,20 +350,16 @@ def chained_refs(view: ViewFacts, obj: ObjectFacts, steps: int, phrased: set[str
         refs = (anchored_refs(view, obj, steps, rng, phrased, wanted=CHAIN_CHOICES, as_anchor=True)
                 or anchored_refs(view, obj, steps, rng, phrased, any_category=True, wanted=CHAIN_CHOICES,
                                  as_anchor=True))
-        view.cache[key] = [(r, mentions(r)) for r in refs]
+        view.cache[key] = [(r, _named_objects(r.relations)) for r in refs]
     return view.cache[key]
 
 
-def mentions(ref: Ref) -> int:
-    """Bit mask of the objects a description names besides its own (its anchors, down the chain)."""
-    return _named_objects_of(ref.relations)
-
-
-def _named_objects_of(relations: tuple[Relation, ...]) -> int:
+def _named_objects(relations: tuple[Relation, ...]) -> int:
+    """Bit mask of the objects some relations name: their anchors, down through chains."""
     mask = 0
     for rel in relations:
         for a in rel.anchors:
-            mask |= 1 << a.object_id | _named_objects_of(a.relations)
+            mask |= 1 << a.object_id | _named_objects(a.relations)
     return mask
 
 
