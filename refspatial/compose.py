@@ -147,12 +147,9 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], n_furniture: int,
            rng: np.random.Generator) -> tuple[PlacedObject, ...]:
     """Lay out the assets; the first ``n_furniture`` are furniture and stand on the table/floor."""
     spec = recipe["objects"]
-    side = float(rng.uniform(*recipe["table"]["region_m"]))
-    # Grow the region for big object sets (several plates) instead of rejecting them.
-    area = sum(float(np.prod(a.size_m[:2] + spec["min_gap_m"])) for a in assets)
-    side = min(max(side, np.sqrt(area / MAX_FILL)), min(table.size_m) - 0.05)
+    extent = _region(float(rng.uniform(*recipe["table"]["region_m"])), assets, table, spec["min_gap_m"])
     # The region may sit anywhere on the table that keeps it whole.
-    slack = np.maximum(np.array(table.size_m) - side, 0) / 2
+    slack = np.maximum(np.array(table.size_m) - extent, 0) / 2
     centre = rng.uniform(-slack, slack)
     placed: list[PlacedObject] = []
     surfaces = surface_heights(table)
@@ -171,7 +168,7 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], n_furniture: int,
             continue
         level = 0 if furniture else _level(asset, surfaces, rng)
         for _ in range(PLACEMENT_TRIES):
-            x, y = centre + rng.uniform(-side / 2, side / 2, size=2)
+            x, y = centre + rng.uniform(-extent / 2, extent / 2)
             yaw = float(rng.uniform(-np.pi, np.pi))
             quad = footprint_corners(asset, x, y, yaw, grow_m=spec["min_gap_m"] / 2)
             inside = np.all(np.abs(quad) <= np.array(table.size_m) / 2 - 0.02)
@@ -193,6 +190,20 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], n_furniture: int,
     # Ids stay 0..n-1 in draw order, whatever was left out.
     kept = sorted(placed, key=lambda o: o.object_id)
     return tuple(dataclasses.replace(o, object_id=k) for k, o in enumerate(kept))
+
+
+def _region(side: float, assets: list[Asset], table: Table, gap: float) -> np.ndarray:
+    """Extents (x, y) of the placement region: a square of the recipe's side, grown for big object
+    sets (several plates) instead of rejecting them, and cut to the table along each axis on its
+    own, so that a long, narrow shelf or counter is used along its length. Where the cut leaves
+    less area than the set needs, the region grows along the axis with room left."""
+    need = sum(float(np.prod(a.size_m[:2] + gap)) for a in assets) / MAX_FILL
+    limit = np.array(table.size_m, dtype=float) - 0.05
+    extent = np.minimum(max(side, float(np.sqrt(need))), limit)
+    if float(np.prod(extent)) < need * (1 - 1e-9):  # not where sqrt(need) squared misses by rounding
+        wide = int(np.argmax(limit - extent))
+        extent[wide] = min(limit[wide], need / float(extent[1 - wide]))
+    return extent
 
 
 @dataclasses.dataclass

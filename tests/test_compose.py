@@ -124,6 +124,28 @@ def test_shelf_recipe_spreads_objects_over_its_boards(catalogue):
     assert levels_used == {0, 1, 2}
 
 
+def test_placement_region_is_cut_to_the_table_axis_by_axis(catalogue):
+    """A long, narrow shelf (1.0 x 0.4 m) with the recipe's 0.9 m region is used along its length:
+    the region is cut only across it. A set too big for the recipe's square grows the region, and
+    what a narrow table cuts off one axis goes to the other, so the region keeps the area the
+    set needs (while the table has room)."""
+    from refspatial.assets import build_asset
+    from refspatial.compose import MAX_FILL, _region
+    from refspatial.scene import Table
+
+    rng = np.random.default_rng(0)
+    shelf = Table((1.0, 0.4), 0.45, (1, 1, 1, 1), "flat", (0.38, 0.76))
+    small = [build_asset(catalogue, "cup", rng)] * 2
+    assert _region(0.9, small, shelf, 0.015) == pytest.approx([0.9, 0.35])
+    square = Table((1.6, 1.0), 0.75, (1, 1, 1, 1), "flat")
+    assert _region(0.5, small, square, 0.015) == pytest.approx([0.5, 0.5])
+    plates = [build_asset(catalogue, "plate", rng)] * 9
+    need = sum(float(np.prod(a.size_m[:2] + 0.015)) for a in plates) / MAX_FILL
+    extent = _region(0.5, plates, Table((4.0, 0.7), 0.75, (1, 1, 1, 1), "flat"), 0.015)  # a long counter
+    assert extent[1] == pytest.approx(0.65) and np.prod(extent) == pytest.approx(need)
+    assert np.all(_region(0.5, plates * 4, square, 0.015) == [1.55, 0.95])  # no room left: the table's
+
+
 def test_room_puts_furniture_on_the_floor_first_and_objects_on_their_tops(catalogue):
     """Furniture takes the first ids and stands on the floor; objects go on the floor, on small
     hosts, or inside a furniture top's outline, at the top's height."""
