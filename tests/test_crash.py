@@ -24,9 +24,16 @@ COMMAND = ["generate", "--recipe", str(TINY), "--scenes", "8", "--seed", "7", "-
 
 
 def start(out: Path) -> subprocess.Popen:
-    """`refspatial generate` in its own process group, as a shell would start it."""
+    """`refspatial generate` in its own process group, as a shell would start it in the foreground."""
     return subprocess.Popen([sys.executable, "-m", "refspatial.cli", *COMMAND, "--out", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=_sigint_as_in_a_terminal)
+
+
+def _sigint_as_in_a_terminal() -> None:
+    # A suite started in the background (`make test &`) inherits SIGINT ignored, and Python keeps
+    # an ignored SIGINT ignored, so the Ctrl-C test would see no Ctrl-C at all.
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def wait_for(proc: subprocess.Popen, ready) -> None:
