@@ -143,7 +143,7 @@ def test_placement_region_is_cut_to_the_table_axis_by_axis(catalogue):
     need = sum(float(np.prod(a.size_m[:2] + 0.015)) for a in plates) / MAX_FILL
     extent = _region(0.5, plates, Table((4.0, 0.7), 0.75, (1, 1, 1, 1), "flat"), 0.015)  # a long counter
     assert extent[1] == pytest.approx(0.65) and np.prod(extent) == pytest.approx(need)
-    assert np.all(_region(0.5, plates * 4, square, 0.015) == [1.55, 0.95])  # no room left: the table's
+    assert _region(0.5, plates * 4, square, 0.015) == pytest.approx([1.55, 0.95])  # no room left: the table's
 
 
 def test_room_puts_furniture_on_the_floor_first_and_objects_on_their_tops(catalogue):

@@ -126,12 +126,22 @@ class ViewFacts:
     def resting_level(self, o: ObjectFacts) -> int | None:
         """The table top (TABLE) or shelf board (-(k + 2)) an object rests on, through any stack
         of objects beneath it; None when some support in the chain is unknown."""
-        support = o.support
-        for _ in range(len(self.objects)):  # a chain longer than the objects would be a cycle
-            if support is None or support < 0:
-                return support
-            support = self.objects[support].support
-        return None
+        return self._levels[o.object_id]
+
+    @cached_property
+    def _levels(self) -> tuple[int | None, ...]:
+        # Once per view: between asks it of every triple of objects.
+        levels = []
+        for o in self.objects:
+            support = o.support
+            for _ in range(len(self.objects)):  # a chain longer than the objects would be a cycle
+                if support is None or support < 0:
+                    break
+                support = self.objects[support].support
+            else:
+                support = None
+            levels.append(support)
+        return tuple(levels)
 
     def on_other_levels(self, *objs: ObjectFacts) -> bool:
         """Known to rest on different levels (a shelf's boards): plan-view relations do not hold across them."""
