@@ -69,7 +69,6 @@ class _Tally:
         self.c: dict[str, Counter] = {name: Counter() for name in _COUNTERS}
         self.answers_by_kind: dict[str, Counter] = {}
         self.steps_by_family: dict[str, Counter] = {}
-        self.answer_options: dict[str, int] = {}  # kind -> most options one of its questions offers
         self.option_counts: dict[str, Counter] = {}  # kind -> {number of options: questions}
         self.points = np.zeros((HEATMAP_BINS, HEATMAP_BINS), dtype=np.int64)  # rows = y, cols = x
         self.visible_share = np.zeros(len(VISIBLE_SHARE_EDGES_PCT) - 1, dtype=np.int64)
@@ -103,7 +102,6 @@ class _Tally:
         if options >= 2 and re.fullmatch(r"\([A-Z]\)", qa["answer"]):  # letters, not values ("13 cm")
             self.c["answers"][qa["answer"]] += 1
             self.answers_by_kind.setdefault(qa["kind"], Counter())[answer_label(qa)] += 1
-            self.answer_options[qa["kind"]] = max(self.answer_options.get(qa["kind"], 0), options)
             self.option_counts.setdefault(qa["kind"], Counter())[options] += 1
         for x, y in qa["answer_points"]:
             col = min(max(int(x * HEATMAP_BINS), 0), HEATMAP_BINS - 1)
@@ -160,7 +158,7 @@ def collect(*roots: Path) -> dict:
         "answers_by_kind": {k: _sorted(v) for k, v in sorted(tally.answers_by_kind.items())},
         "steps_by_family": {k: _by_number(_sorted(v)) for k, v in sorted(tally.steps_by_family.items())},
         "steps_wanted": wanted_steps(manifests),
-        "answer_options": dict(sorted(tally.answer_options.items())),
+        "answer_options": {k: max(v) for k, v in sorted(tally.option_counts.items())},  # the most one offers
         "answer_option_counts": {k: _by_number(_sorted(v)) for k, v in sorted(tally.option_counts.items())},
         "visible_share": {"edges_pct": list(VISIBLE_SHARE_EDGES_PCT), "counts": tally.visible_share.tolist()},
         "answer_points": _points_summary(tally.points),
