@@ -20,6 +20,11 @@ class MeshData:
 
     vertices_m: np.ndarray  # (N, 3) float64
     faces: np.ndarray  # (M, 3) int32, counter-clockwise seen from outside
+    # Texture coordinates, indexed per face corner so a seam needs no split vertices (smooth
+    # normals stay shared): (K, 2) float32 with v = 0 at the image's bottom row (OpenGL, glTF
+    # flipped), and (M, 3) int32 indices into them. Both None for an untextured mesh.
+    texcoords: np.ndarray | None = None
+    face_texcoords: np.ndarray | None = None
 
     @cached_property
     def bounds_m(self) -> np.ndarray:
@@ -52,6 +57,15 @@ class Cavity:
 
 
 @dataclass(frozen=True, eq=False)
+class Texture:
+    """An image mapped onto a mesh through its texcoords. It carries the object's whole colour:
+    a textured object's rgba only records the colour word's reference rgb."""
+
+    key: str  # stable name of what made it: a generator and its parameters, or the image's sha256
+    rgb: np.ndarray  # (H, W, 3) uint8, top row first (as in an image file)
+
+
+@dataclass(frozen=True, eq=False)
 class Asset:
     """One concrete object: geometry, look and semantics, ready to place."""
 
@@ -68,6 +82,8 @@ class Asset:
     licence: str = "project-own (procedural)"
     cavity: Cavity | None = None  # containers only
     support: bool = False  # other objects may be stacked on its top face
+    texture: Texture | None = None  # mapped through visual.texcoords (which must then be set)
+    source: str = "procedural"  # "procedural", or the asset library it came from
 
     @property
     def size_m(self) -> np.ndarray:
