@@ -28,6 +28,7 @@ from .mesh_import import (
     import_mesh,
     load_annotation,
 )
+from .looks import dress, load_looks
 from .paths import assets_dir
 from .scene import Asset, Cavity, MeshData
 from .shapes import BUILDER_LIMITS, BUILDER_PARAMS, BUILDERS
@@ -219,6 +220,7 @@ def load_catalogue(path: Path | None = None, cache_dir: Path | None = None) -> C
     entries = ck.mapping(top["categories"], "categories").items()
     categories = {k: _category(ctx, k, v) for k, v in entries}
     digest = hashlib.sha256(raw)
+    digest.update(load_looks().sha256.encode())  # textures are part of what an asset looks like
     for spec in (s for s in categories.values() if s.mesh is not None):
         digest.update(f"\n{spec.key}:{spec.mesh.sha256}".encode())  # type: ignore[union-attr]
     return Catalogue(categories, colors, materials, digest.hexdigest(), groups)  # type: ignore[arg-type]
@@ -379,9 +381,12 @@ def build_asset(catalogue: Catalogue, category: str, rng: np.random.Generator, c
     material = spec.materials[int(rng.integers(len(spec.materials)))]
     color = drawn if color is None else color
     visual, parts = _geometry(spec, params)
+    texture = None
+    if visual.texcoords is None:  # an imported mesh brings its own texture; procedural ones get a look
+        visual, texture = dress(load_looks(), category, material, catalogue.colors[color], params, visual)
     return Asset(
         category=category, name=spec.name, color=color, rgba=(*catalogue.colors[color], 1.0), material=material,
-        visual=visual, collision=parts, front_local=spec.front_vector, front_side=spec.front_side, params=params,
+        visual=visual, collision=parts, texture=texture, front_local=spec.front_vector, front_side=spec.front_side, params=params,
         licence=spec.licence, cavity=spec.cavity.evaluate(params) if spec.cavity else None, support=spec.support,
     )
 

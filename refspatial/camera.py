@@ -15,12 +15,12 @@ import numpy as np
 
 from .compose import SceneRejected
 from .recipe import Recipe
+from .room import camera_clearance_m
 from .relations.geometry import project as project_points
 from .scene import Camera, Scene, matrix_to_quat
 from .seeding import stage_rng
 
 FIT_ITERATIONS = 30  # bisection steps on the viewing distance (sub-millimetre)
-WALL_CLEARANCE_M = 0.3  # a camera in a room keeps this far from the walls
 
 
 def frame_cameras(scene: Scene, recipe: Recipe) -> Scene:
@@ -31,8 +31,8 @@ def frame_cameras(scene: Scene, recipe: Recipe) -> Scene:
     levels = scene.table.levels_m
     aim_z = scene.table.top_z_m + (0.5 * max(levels) if levels else 0.0)
     aim = np.array([*((corners[:, :2].min(0) + corners[:, :2].max(0)) / 2), aim_z])
-    # In a room the camera stays inside the walls (a floor's edges), with room for a head.
-    room = np.array(scene.table.size_m) / 2 - WALL_CLEARANCE_M if scene.table.surface == "floor" else None
+    # The camera stays inside the walls, clear of the background furniture, with room for a head.
+    room = np.array(scene.room.size_m) / 2 - camera_clearance_m(scene.room, scene.table)
     cams = []
     for view in range(spec["views"]):
         cams.append(_frame_one(f"view{view}", corners, aim, spec, rng, room))

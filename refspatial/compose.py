@@ -18,7 +18,8 @@ from scipy.spatial import ConvexHull
 from .assets import Catalogue, build_asset
 from .recipe import Recipe
 from .relations.geometry import inside_convex
-from .scene import BOARD_M, Asset, Light, PlacedObject, Pose, Scene, Table, yaw_quat
+from .room import sample_lights, sample_room
+from .scene import BOARD_M, Asset, PlacedObject, Pose, Scene, Table, yaw_quat
 from .seeding import stage_rng
 
 PLACEMENT_TRIES = 200  # per object, before the scene is rejected as too crowded
@@ -44,8 +45,11 @@ def compose(recipe: Recipe, catalogue: Catalogue, seed: int) -> Scene:
         furniture = _sample_furniture(recipe, catalogue, stage_rng(recipe.hash, seed, "furniture"))
     assets = furniture + _sample_assets(recipe, catalogue, stage_rng(recipe.hash, seed, "assets"))
     objects = _place(recipe, table, assets, len(furniture), stage_rng(recipe.hash, seed, "layout"))
-    light = _sample_light(recipe, stage_rng(recipe.hash, seed, "light"))
-    return Scene(recipe.name, recipe.hash, seed, table, objects, cameras=(), light=light)
+    room = sample_room(recipe, table, stage_rng(recipe.hash, seed, "room"))
+    # The top is the room's table-top surface: records name what is rendered.
+    table = dataclasses.replace(table, rgba=(*room.top.rgb, 1.0), texture=room.top.look)
+    lights = sample_lights(recipe, stage_rng(recipe.hash, seed, "light"), room.size_m, room.height_m, table.top_z_m)
+    return Scene(recipe.name, recipe.hash, seed, table, objects, cameras=(), lights=lights, room=room)
 
 
 def category_pool(recipe: Recipe, catalogue: Catalogue, section: str = "objects") -> list[str]:
@@ -102,14 +106,6 @@ def _sample_table(recipe: Recipe, rng: np.random.Generator) -> Table:
         levels_m=tuple(float(h) for h in spec["levels_m"]),
         surface=recipe.option("table", "surface"),
     )
-
-
-def _sample_light(recipe: Recipe, rng: np.random.Generator) -> Light:
-    spec = recipe["light"]
-    az = np.radians(rng.uniform(*spec["azimuth_deg"]))
-    el = np.radians(rng.uniform(*spec["elevation_deg"]))
-    direction = -np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-    return Light(dir_world=tuple(float(v) for v in direction), intensity=float(rng.uniform(*spec["intensity"])))
 
 
 def footprint_corners(asset: Asset, x: float, y: float, yaw: float, grow_m: float = 0.0) -> np.ndarray:

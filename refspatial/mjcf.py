@@ -18,16 +18,15 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .assets import MaterialSpec  # noqa: E402
-from .scene import BOARD_M, Scene  # noqa: E402
+from .mjcf_room import ROOM_GROUP, TABLE_THICKNESS_M, add_room, add_texture  # noqa: E402,F401
+from .scene import MeshData, Scene  # noqa: E402
 
 VISUAL_GROUP = 0
 COLLISION_GROUP = 3
-TABLE_THICKNESS_M = 0.03
 DENSITY_KG_M3 = 600.0  # household objects are mostly hollow; a mean keeps masses plausible
 FRICTION = (1.0, 0.01, 0.002)  # sliding, torsional, rolling: rolling friction stops apples drifting
+SHADOW_REACH_M = (0.5, 2.0)  # bounds on the half width of the sun's shadow map
 FLOOR_EXTENT_M = 3.0  # model extent for a room: the shadow map (centred on the objects) spans the furniture
-WALL_HEIGHT_M, WALL_THICKNESS_M = 2.6, 0.1
-WALL_RGBA = (0.86, 0.84, 0.80, 1.0)
 
 
 @dataclass(frozen=True)
@@ -49,14 +48,27 @@ def build_spec(scene: Scene, materials: dict[str, MaterialSpec], opts: SpecOptio
     spec.option.timestep = opts.timestep_s
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     _visual_settings(spec, scene, opts)
-    _add_room(spec, scene)
+    add_room(spec, scene, FRICTION, opts.visual, opts.mesh_dir)
     for name, m in materials.items():
         _add_material(spec, f"mat_{name}", m)
     for obj in scene.objects:
-        _add_object(spec, obj, opts)
+        _add_object(spec, obj, opts, materials)
     for cam in scene.cameras:
         spec.worldbody.add_camera(name=cam.name, pos=cam.pos_world_m, quat=cam.quat_wxyz, fovy=cam.fovy_deg)
     return spec
+
+
+def _shadow_reach_m(scene: Scene) -> float:
+    """Half width of the sun's shadow map: the objects' spread around their centre plus the
+    shadow the tallest one throws, within bounds that keep furniture tops covered."""
+    if not scene.objects:
+        return SHADOW_REACH_M[1]
+    xy = np.array([o.pose.pos_world_m[:2] for o in scene.objects])
+    spread = float(np.linalg.norm(xy.max(0) - xy.min(0))) / 2
+    tallest = max(float(o.asset.size_m[2]) for o in scene.objects)
+    elevation = np.arcsin(min(1.0, abs(scene.light.dir_world[2])))
+    reach = spread + tallest / max(np.tan(elevation), 0.3) + 0.15
+    return float(np.clip(reach, *SHADOW_REACH_M))
 
 
 def _add_material(spec: mujoco.MjSpec, name: str, m: MaterialSpec) -> None:
@@ -84,110 +96,67 @@ def _visual_settings(spec: mujoco.MjSpec, scene: Scene, opts: SpecOptions) -> No
     spec.visual.global_.offheight = height
     spec.visual.quality.shadowsize = 2048
     spec.visual.quality.offsamples = 4
-    spec.visual.headlight.ambient = [0.25, 0.25, 0.25]
-    spec.visual.headlight.diffuse = [0.25, 0.25, 0.25]
+    spec.visual.headlight.ambient = [0.2, 0.2, 0.2]
+    spec.visual.headlight.diffuse = [0.15, 0.15, 0.15]
     spec.visual.headlight.specular = [0.0, 0.0, 0.0]
     spec.visual.map.znear = 0.01  # fraction of the model extent; keeps depth precise up close
-    # The sun's shadow map covers half the extent around the table: spent on the
-    # whole floor it leaves too few texels, and the floor shows shadow acne.
-    spec.visual.map.shadowclip = 0.5
     spec.stat.extent = FLOOR_EXTENT_M if scene.table.surface == "floor" else 2.0
+    # The sun's shadow map spans the objects and their shadows, no more: every texel spent
+    # beyond them is lost to the objects, whose edges then fray.
+    spec.visual.map.shadowclip = _shadow_reach_m(scene) / spec.stat.extent
     spec.stat.center = [0.0, 0.0, scene.table.top_z_m]
 
 
-def _add_room(spec: mujoco.MjSpec, scene: Scene) -> None:
-    t = scene.table
-    spec.add_texture(
-        name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-        rgb1=[0.80, 0.82, 0.85], rgb2=[0.35, 0.37, 0.40], width=64, height=64,
-    )
-    builtin = {
-        "checker": mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-        "gradient": mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-        "flat": mujoco.mjtBuiltin.mjBUILTIN_FLAT,
-    }[t.texture]
-    rgb = np.array(t.rgba[:3])
-    spec.add_texture(
-        name="table_tex", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=builtin,
-        rgb1=rgb.tolist(), rgb2=(rgb * 0.85).tolist(), width=256, height=256,
-    )
-    table_mat = spec.add_material(name="table_mat", specular=0.2, shininess=0.3, texrepeat=[4, 4])
-    table_mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "table_tex"
-    world = spec.worldbody
-    if t.surface == "table":  # a floor under the table; a "floor" surface is itself the floor
-        spec.add_material(name="floor_mat", rgba=[0.45, 0.43, 0.40, 1.0], specular=0.05)
-        world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1], material="floor_mat")
-    half = [t.size_m[0] / 2, t.size_m[1] / 2, TABLE_THICKNESS_M / 2]
-    world.add_geom(
-        name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=[0, 0, t.top_z_m - half[2]],
-        material="table_mat", friction=FRICTION, condim=6,
-    )
-    for k, h in enumerate(t.levels_m):  # shelf boards: supports like the top, named so physics can tell
-        world.add_geom(
-            name=f"board{k}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[half[0], half[1], BOARD_M / 2],
-            pos=[0, 0, t.top_z_m + h - BOARD_M / 2], material="table_mat", friction=FRICTION, condim=6,
-        )
-    if t.surface == "floor":  # walls along the floor's edges: a room, not a stage in a void
-        spec.add_material(name="wall_mat", rgba=list(WALL_RGBA), specular=0.05)
-        for axis in (0, 1):
-            for sign in (-1, 1):
-                size = [half[0] + WALL_THICKNESS_M, half[1] + WALL_THICKNESS_M, WALL_HEIGHT_M / 2]
-                size[axis] = WALL_THICKNESS_M / 2
-                pos = [0.0, 0.0, t.top_z_m + WALL_HEIGHT_M / 2]
-                pos[axis] = sign * (half[axis] + WALL_THICKNESS_M / 2)
-                world.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=size, pos=pos, material="wall_mat",
-                               contype=0, conaffinity=0)
-    # Legs, continued up as posts to the highest board on a shelf.
-    leg_h = (t.top_z_m + (max(t.levels_m) if t.levels_m else 0.0) - TABLE_THICKNESS_M) / 2
-    for sx in ((-1, 1) if t.surface == "table" else ()):
-        for sy in (-1, 1):
-            world.add_geom(
-                type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.025, 0.025, leg_h],
-                pos=[sx * (half[0] - 0.05), sy * (half[1] - 0.05), leg_h], material="table_mat",
-                contype=0, conaffinity=0,
-            )
-    light_dir = np.array(scene.light.dir_world)
-    diffuse = (0.7 * scene.light.intensity * np.ones(3)).tolist()
-    # A directional light's shadow map is centred on its position: over the objects, not the
-    # origin, since a room's objects may stand metres from the floor's centre.
-    aim = np.array([*_objects_centre(scene), t.top_z_m]) if t.surface == "floor" else np.array([0, 0, t.top_z_m])
-    world.add_light(
-        name="sun", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, dir=light_dir.tolist(),
-        pos=(-2.0 * light_dir + aim).tolist(), diffuse=diffuse,
-        specular=[0.2, 0.2, 0.2], ambient=[0.1, 0.1, 0.1], castshadow=True,
-    )
-
-
-def _objects_centre(scene: Scene) -> tuple[float, float]:
-    """Middle of the objects' positions on the ground plane (the origin when there are none)."""
-    if not scene.objects:
-        return 0.0, 0.0
-    xy = np.array([o.pose.pos_world_m[:2] for o in scene.objects])
-    lo, hi = xy.min(0), xy.max(0)
-    return float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2)
-
-
-def _mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.ndarray, opts: SpecOptions) -> None:
+def _mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.ndarray, opts: SpecOptions,
+          mesh: MeshData | None = None) -> None:
     if opts.mesh_dir is None:
-        spec.add_mesh(name=name, uservert=vertices.ravel().tolist(), userface=faces.ravel().tolist())
+        mesh_spec = spec.add_mesh(name=name, uservert=vertices.ravel().tolist(), userface=faces.ravel().tolist())
+        if mesh is not None and mesh.texcoords is not None:
+            mesh_spec.usertexcoord = mesh.texcoords.ravel().tolist()
+            mesh_spec.userfacetexcoord = mesh.face_texcoords.ravel().tolist()
         return
     import trimesh
 
-    filename = f"{name.replace('/', '_')}.stl"
-    trimesh.Trimesh(vertices, faces, process=False).export(opts.mesh_dir / filename)
+    if mesh is not None and mesh.texcoords is not None:  # STL has no texture coordinates; OBJ does
+        filename = f"{name.replace('/', '_')}.obj"
+        _write_obj(opts.mesh_dir / filename, vertices, faces, mesh.texcoords, mesh.face_texcoords)
+    else:
+        filename = f"{name.replace('/', '_')}.stl"
+        trimesh.Trimesh(vertices, faces, process=False).export(opts.mesh_dir / filename)
     spec.add_mesh(name=name, file=filename)
 
 
-def _add_object(spec: mujoco.MjSpec, obj, opts: SpecOptions) -> None:
+def _write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, face_uv: np.ndarray) -> None:
+    """A Wavefront OBJ with per-corner texture coordinates (``f v/vt``), 1-based as OBJ counts."""
+    lines = [f"v {x:.7g} {y:.7g} {z:.7g}" for x, y, z in vertices]
+    lines += [f"vt {u:.6g} {v:.6g}" for u, v in uv]
+    lines += [f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}"
+              for (a, b, c), (ta, tb, tc) in zip(faces, face_uv)]
+    path.write_text("\n".join(lines) + "\n", encoding="ascii")
+
+
+def _textured_material(spec: mujoco.MjSpec, name: str, asset, materials: dict[str, MaterialSpec],
+                       folder: Path | None) -> str:
+    """The catalogue material's shading with the asset's own texture (shared by equal textures)."""
+    m = materials[asset.material]
+    tex = add_texture(spec, f"tex_{asset.texture.key}", asset.texture, folder)
+    mat = spec.add_material(name=f"{name}_mat", specular=m.specular, shininess=m.shininess, reflectance=m.reflectance)
+    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex
+    return mat.name
+
+
+def _add_object(spec: mujoco.MjSpec, obj, opts: SpecOptions, materials: dict[str, MaterialSpec]) -> None:
     name = body_name(obj.object_id)
     body = spec.worldbody.add_body(name=name, pos=obj.pose.pos_world_m, quat=obj.pose.quat_wxyz)
     asset = obj.asset
     if opts.visual:
-        _mesh(spec, f"{name}_visual", asset.visual.vertices_m, asset.visual.faces, opts)
+        _mesh(spec, f"{name}_visual", asset.visual.vertices_m, asset.visual.faces, opts, asset.visual)
+        material, rgba = f"mat_{asset.material}", list(asset.rgba)
+        if asset.texture is not None:  # the texture carries the whole colour: white rgba, own material
+            material, rgba = _textured_material(spec, name, asset, materials, opts.mesh_dir), [1.0, 1.0, 1.0, asset.rgba[3]]
         body.add_geom(
             name=f"{name}_visual", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_visual",
-            rgba=list(asset.rgba), material=f"mat_{asset.material}", group=VISUAL_GROUP,
-            contype=0, conaffinity=0, density=0.0,
+            rgba=rgba, material=material, group=VISUAL_GROUP, contype=0, conaffinity=0, density=0.0,
         )
     if not opts.dynamic:
         return

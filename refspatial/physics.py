@@ -108,6 +108,7 @@ def write_mjcf(scene: Scene, materials: dict[str, MaterialSpec], out_xml: Path) 
     mesh_dir.mkdir(parents=True, exist_ok=True)
     spec = build_spec(scene, materials, SpecOptions(dynamic=True, mesh_dir=mesh_dir))
     spec.meshdir = mesh_dir.name
+    spec.texturedir = mesh_dir.name
     spec.modelfiledir = str(out_xml.parent)
     spec.compile()
     xml = spec.to_xml()

@@ -24,7 +24,7 @@ from .relations import ViewFacts, computed_relations, view_facts
 from .relations.masks import cached_boxes
 from .relations.stored import facts_from_record, object_record, rounded
 from .render import View, render_views
-from .scene import Scene
+from .scene import Light, Room, Scene
 from .seeding import stage_rng
 
 STAGES = ("compose", "physics", "camera", "render", "relations", "questions")
@@ -99,6 +99,23 @@ def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutc
     return out
 
 
+def light_dict(light: Light) -> dict:
+    out = {"kind": light.kind, "dir_world": rounded(light.dir_world), "intensity": round(light.intensity, 6),
+           "kelvin": round(light.kelvin, 1), "radius_m": round(light.shadow_m, 4)}
+    if light.pos_world_m is not None:
+        out["pos_world_m"] = rounded(light.pos_world_m)
+    return out
+
+
+def room_dict(room: Room) -> dict:
+    """What surrounds the scene: sizes, each surface's look and mean colour, background pieces."""
+    surfaces = {k: {"look": s.look, "texture": s.texture.key, "rgb": rounded(s.rgb, 4)}
+                for k, s in (("floor", room.floor), ("wall", room.wall), ("top", room.top), ("furniture", room.furniture))}
+    props = [{"kind": p.kind, "pos_world_m": rounded(p.pos_world_m), "yaw_rad": round(p.yaw_rad, 6),
+              "size_m": rounded(p.size_m)} for p in room.props]
+    return {"size_m": rounded(room.size_m), "height_m": round(room.height_m, 6), "surfaces": surfaces, "props": props}
+
+
 def scene_dict(scene: Scene, index: int, view: View, facts: ViewFacts) -> dict:
     """The JSON description of a scene as seen from one view."""
     cam = view.camera
@@ -118,6 +135,8 @@ def scene_dict(scene: Scene, index: int, view: View, facts: ViewFacts) -> dict:
                   "levels_m": rounded(scene.table.levels_m), "rgba": rounded(scene.table.rgba, 4),
                   "texture": scene.table.texture, "surface": scene.table.surface},
         "light": {"dir_world": rounded(scene.light.dir_world), "intensity": round(scene.light.intensity, 6)},
+        "lights": [light_dict(light) for light in scene.lights],
+        "room": room_dict(scene.room),
         "contacts": [list(p) for p in scene.contacts],
         "objects": [object_record(o, facts.objects[o.object_id]) for o in scene.objects],
     }

@@ -116,6 +116,10 @@ def _levels(v: Any) -> str | None:
     return "expected a list of increasing shelf-board heights above the top, each in [0.1, 3] m ([] for none)"
 
 
+def _folder(v: Any) -> str | None:
+    return None if v is None or (isinstance(v, str) and v.strip()) else "expected a folder path or null"
+
+
 def _one_of(*allowed: str) -> Callable:
     def check(v: Any) -> str | None:
         return None if v in allowed else f"expected one of {list(allowed)}"
@@ -188,8 +192,19 @@ OPTIONAL: dict[str, dict[str, tuple[Callable[[Any], str | None], Any]]] = {
         # "floor": the surface is a room's floor (no legs, no edge in view): at_edge/at_corner are not asked
         "surface": (_one_of("table", "floor"), "table"),
     },
+    "light": {
+        "count": (_range(1, 3, integer=True), [1, 3]),  # a sun, then lamps under the ceiling
+        "kelvin": (_range(1500, 12000), [2700, 6500]),  # colour temperature of each light
+        "soft_m": (_range(0, 0.5), [0.02, 0.08]),  # the sun's radius: the softness of shadow edges
+    },
     "objects": {
         "on_furniture": (_scalar(0, 1), 0.0),  # chance that an object goes on top of a piece of furniture
+    },
+    "room": {  # walls, floor and background around the scene (room.py); a floor scene's walls stand at its edges
+        "size_m": (_size_ranges, [[6.0, 8.0], [6.0, 8.0]]),
+        "height_m": (_range(2.0, 6.0), [2.6, 3.0]),
+        "props": (_range(0, 8, integer=True), [1, 3]),  # background furniture along the walls
+        "images": (_folder, None),  # a folder of .png/.jpg images that floors, walls and tops may use
     },
     "furniture": {  # pieces standing on the surface before the objects come (catalogue group "furniture")
         "count": (_range(0, 20, integer=True), [0, 0]),

@@ -20,7 +20,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from .assets import MaterialSpec  # noqa: E402
-from .mjcf import COLLISION_GROUP, SpecOptions, build_spec, object_of_geom  # noqa: E402
+from .mjcf import COLLISION_GROUP, ROOM_GROUP, SpecOptions, build_spec, object_of_geom  # noqa: E402
 from .scene import Camera, Scene  # noqa: E402
 
 SPARE_GEOMS = 64  # room in the abstract scene beyond the model's own geoms (lights, decor)
@@ -100,6 +100,7 @@ def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray) -> View:
     mujoco.mjv_updateScene(model, data, option, None, camera, mujoco.mjtCatBit.mjCAT_ALL.value, scn)
     if scn.ngeom >= scn.maxgeom:  # MuJoCo drops what does not fit: objects would vanish silently
         raise RuntimeError(f"the scene has more than {scn.maxgeom} visual geoms; raise SPARE_GEOMS")
+    _room_casts_no_shadow(model, scn)
     rect = mujoco.MjrRect(0, 0, cam.width, cam.height)
     rgb = np.empty((cam.height, cam.width, 3), dtype=np.uint8)
     mujoco.mjr_render(rect, scn, ctx)
@@ -113,6 +114,17 @@ def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray) -> View:
     # OpenGL's rows run bottom-up.
     return View(cam, np.flipud(rgb).copy(), np.flipud(metric_depth(model, raw)).copy(),
                 np.flipud(_segmentation(scn, ids, lookup)).copy())
+
+
+def _room_casts_no_shadow(model, scn) -> None:
+    """Walls, ceiling and background pieces stay out of the shadow map: under a low sun they
+    would shade the whole table, and they stand outside the light's view of the objects anyway."""
+    import mujoco
+
+    for k in range(scn.ngeom):
+        g = scn.geoms[k]
+        if g.objtype == mujoco.mjtObj.mjOBJ_GEOM and model.geom_group[g.objid] == ROOM_GROUP:
+            g.castshadow = 0
 
 
 def metric_depth(model, raw: np.ndarray) -> np.ndarray:

@@ -47,7 +47,7 @@ def render_html(stats: dict, manifest: dict) -> str:
     """The whole page as a string (pure: same stats and manifest, same bytes)."""
     import matplotlib
 
-    body = [_summary(stats, manifest), _balance(stats)]
+    body = [_summary(stats, manifest), _balance(stats), _images(stats)]
     with matplotlib.rc_context(STYLE):
         for title, plot, tables in _SECTIONS:
             body.append(f"<h2>{title}</h2>\n{_img(plot(stats), title)}\n"
@@ -89,6 +89,26 @@ def _balance(stats: dict) -> str:
             "count furthest below the recipe's share for it) warns when the upper end is below half that "
             "share. Either is beyond sampling noise then; <i>watch</i> means past the threshold but within "
             "noise.</p>")
+
+
+def _images(stats: dict) -> str:
+    """The image audit (image_stats.py): void pixels, colour confusions, looks, lights, sources."""
+    images = stats.get("images")
+    if not images:
+        return ""
+    facts = [("pixels with no surface", f"{images['void_share']:.4%} ({images['records_with_void']} records with any)"),
+             ("colour confusions", f"{images['colour_confusions']} of {images['colour_pairs']} pairs told apart by "
+                                   f"colour ({images['colour_confusion_share']:.1%})")]
+    cells = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in facts)
+    examples = "".join(f"<li>{html.escape(e)}</li>" for e in images["colour_confusion_examples"])
+    kelvin = images["light_kelvin"]
+    bins = {f"{lo}-{hi} K": n for lo, hi, n in zip(kelvin["edges"], kelvin["edges"][1:], kelvin["counts"]) if n}
+    tables = "".join(_table({"t": counts}, "t", title) for counts, title in (
+        (images["object_looks"], "object looks"), (images["surface_looks"], "room surfaces"),
+        (images["lights_per_scene"], "lights per scene"), (bins, "light colour temperature"),
+        (images["asset_sources"], "asset sources")))
+    return (f"<h2>Images</h2>\n<table class=summary>{cells}</table>\n"
+            + (f"<ul class=warnings>{examples}</ul>\n" if examples else "") + f"<div class=tables>{tables}</div>")
 
 
 def _table(stats: dict, key: str, title: str) -> str:

@@ -154,6 +154,43 @@ class Camera:
 class Light:
     dir_world: tuple[float, float, float]  # direction the light shines along
     intensity: float  # multiplier on the recipe's base diffuse colour
+    kelvin: float = 6500.0  # colour temperature; 6500 K is neutral white
+    kind: str = "sun"  # "sun" (directional, casts the shadows) or "lamp" (a spot in the room)
+    pos_world_m: tuple[float, float, float] | None = None  # lamps only
+    shadow_m: float = 0.0  # light source radius: shadow edges soften with it (0: hard)
+
+
+@dataclass(frozen=True, eq=False)
+class Surface:
+    """A textured room surface: floor, walls, table top, background furniture."""
+
+    look: str  # look name in textures.yaml, or "image:<file>" for a user's image
+    rgb: tuple[float, float, float]  # mean colour of its texture
+    texture: Texture
+    tile_m: float  # metres one repeat of the texture covers
+
+
+@dataclass(frozen=True)
+class Prop:
+    """A piece of background furniture or an opening in a wall: seen, never asked about."""
+
+    kind: str  # "cabinet", "shelf", "sofa", "plant", "window", "door"
+    pos_world_m: tuple[float, float, float]  # centre of its base
+    yaw_rad: float
+    size_m: tuple[float, float, float]  # along its own x (depth), y (width), z (height)
+
+
+@dataclass(frozen=True, eq=False)
+class Room:
+    """Walls, floor and background around the scene, so no view sees a void."""
+
+    size_m: tuple[float, float]  # inner extents along world x and y, centred on the origin
+    height_m: float
+    floor: Surface
+    wall: Surface
+    top: Surface  # the table top and shelf boards (a floor scene's floor is `floor`)
+    furniture: Surface  # background furniture and the door
+    props: tuple[Prop, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,9 +203,14 @@ class Scene:
     table: Table
     objects: tuple[PlacedObject, ...]
     cameras: tuple[Camera, ...]
-    light: Light
+    lights: tuple[Light, ...]  # the first is the key light (a sun), which casts the shadows
+    room: Room
     # Pairs of object ids (smaller first) in contact after settling; -1 is the table.
     contacts: tuple[tuple[int, int], ...] = ()
+
+    @property
+    def light(self) -> Light:
+        return self.lights[0]
 
     @property
     def scene_id(self) -> str:

@@ -1,7 +1,8 @@
 """Dataset statistics for audits: what was generated, how it is spread, and what dominates.
 
-Reads only the JSON topics of each record (no image is decoded), so it stays fast on
-large datasets; the answer-point heatmap uses the stored normalised ``answer_points``.
+Counts come from the JSON topics of each record; the image section (``image_stats``) decodes
+the pixels to re-derive what they show. The answer-point heatmap uses the stored normalised
+``answer_points``.
 Every aggregate is a plain JSON value, so ``refspatial stats --json`` and the HTML report
 (``refspatial.report``) read the same dict.
 """
@@ -17,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .image_stats import ImageTally
+from .image_stats import format_text as format_images
 from .records import ShardReader
 
 # Answer-point histogram bins per axis. A multiple of 3, so the 3x3 balance grid is an exact
@@ -130,11 +133,12 @@ def answer_label(qa: dict) -> str:
 def collect(*roots: Path) -> dict:
     """Statistics over one dataset folder, or over several (one per scene family) as one."""
     manifests = [load_manifest(root) for root in roots]
-    tally = _Tally()
+    tally, images = _Tally(), ImageTally()
     for root, manifest in zip(roots, manifests):
         for shard in manifest["shards"]:
-            for sample in ShardReader(Path(root) / shard["file"]).iter(fields=()):
+            for sample in ShardReader(Path(root) / shard["file"]).iter():
                 tally.add_record(sample)
+                images.add(sample)
     manifest = merge_manifests(manifests)
     by_recipe: dict[str, dict] = {}
     for m in manifests:
@@ -162,6 +166,7 @@ def collect(*roots: Path) -> dict:
         "answer_option_counts": {k: _by_number(_sorted(v)) for k, v in sorted(tally.option_counts.items())},
         "visible_share": {"edges_pct": list(VISIBLE_SHARE_EDGES_PCT), "counts": tally.visible_share.tolist()},
         "answer_points": _points_summary(tally.points),
+        "images": images.summary(),
     }
     stats["question_words"] = _by_number(stats["question_words"])
     stats["balance"] = balance_checks(stats)
@@ -330,5 +335,7 @@ def format_text(stats: dict) -> str:
         counts = stats[key]
         total = sum(counts.values()) or 1
         lines.extend(f"  {k:<24} {v:>8}  {v / total:6.1%}" for k, v in counts.items())
+    if "images" in stats:
+        lines.extend(format_images(stats["images"]))
     lines.extend(f"warning: {w}" for w in stats.get("warnings", []))
     return "\n".join(lines)

@@ -94,7 +94,10 @@ def test_shipped_catalogue_has_the_required_words_and_categories(catalogue: Cata
     assert all(groups.count(group) >= 3 for group in REQUIRED_GROUPS), groups
     assert {k for k, s in catalogue.categories.items() if s.cavity} == set(CONTAINERS)
     assert {k for k, s in catalogue.categories.items() if s.support} == set(SUPPORTS)
-    assert catalogue.sha256 == hashlib.sha256((assets_dir() / "catalogue.yaml").read_bytes()).hexdigest()
+    # The catalogue's identity covers the file and the looks its assets are textured with.
+    digest = hashlib.sha256((assets_dir() / "catalogue.yaml").read_bytes())
+    digest.update(hashlib.sha256((assets_dir() / "textures.yaml").read_bytes()).hexdigest().encode())
+    assert catalogue.sha256 == digest.hexdigest()
 
 
 def test_shipped_colours_are_plausible(catalogue: Catalogue) -> None:
@@ -638,7 +641,9 @@ def test_a_valid_copy_loads_and_its_hash_is_of_the_bytes(tmp_path: Path) -> None
     path = tmp_path / "catalogue.yaml"
     path.write_text(_dump(_shipped()))
     loaded = load_catalogue(path)
-    assert loaded.sha256 == hashlib.sha256(path.read_bytes()).hexdigest()
+    digest = hashlib.sha256(path.read_bytes())
+    digest.update(hashlib.sha256((assets_dir() / "textures.yaml").read_bytes()).hexdigest().encode())
+    assert loaded.sha256 == digest.hexdigest()  # the bytes, and the looks that dress its assets
     assert set(loaded.categories) == set(load_catalogue().categories)
 
 

@@ -15,6 +15,8 @@ from typing import Callable
 
 import numpy as np
 
+from ..colour import DISTINCT_DELTA_E, delta_e
+
 from ..relations import PREDICATES, ObjectFacts, ViewFacts
 from .program import ORDINAL_AXES, Node, ProgramError, execute, is_degenerate
 
@@ -114,11 +116,29 @@ def simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
     return view.cache[key]
 
 
+def colour_tells_apart(view: ViewFacts, target: ObjectFacts, category: str | None) -> bool:
+    """Whether the target's colour word may pick it out among things of ``category`` (any, when
+    None): every seen one named by another colour must also look clearly different in the image
+    (CIE Lab distance of the mean visible colours at least DISTINCT_DELTA_E). A "white" and a
+    "silver" spoon that render alike are told apart some other way. Facts without rendered
+    colours (records written before they were stored) fall back to the words alone."""
+    key = ("colour_apart", target.object_id, category)
+    if key not in view.cache:
+        view.cache[key] = all(
+            o.lab is None or target.lab is None or delta_e(o.lab, target.lab) >= DISTINCT_DELTA_E
+            for o in view.objects
+            if o.object_id != target.object_id and o.status != "hidden" and category in (None, o.category)
+            and o.color != target.color)
+    return view.cache[key]
+
+
 def _simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
     base = Ref(target.object_id, target.category, target.name)
-    coloured = Ref(target.object_id, target.category, target.name, target.color)
-    out = [r for r in (base, coloured) if resolves(r, view)]
-    for head in (base, coloured):
+    heads = [base]
+    if colour_tells_apart(view, target, target.category):
+        heads.append(Ref(target.object_id, target.category, target.name, target.color))
+    out = [r for r in heads if resolves(r, view)]
+    for head in heads:
         for ordinal in _ordinals(view, head, target):
             ref = Ref(head.object_id, head.category, head.name, head.color, ordinal)
             if resolves(ref, view):
@@ -174,8 +194,8 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
     the head is "the object" (identify-from-relations questions). ``as_anchor``: the
     description will be a chained anchor, so it has one relation (ANCHOR_COMBOS).
     """
-    heads = [None] if any_category else [None, target.color]
     category = None if any_category else target.category
+    heads = [None, target.color] if not any_category and colour_tells_apart(view, target, category) else [None]
     shapes = (ANCHOR_COMBOS if as_anchor else COMBOS).get(steps, ())
     shapes = [shapes[int(k)] for k in rng.permutation(len(shapes))]  # no form crowds out the others
     out: list[Ref] = []

@@ -16,6 +16,8 @@ from functools import cached_property
 
 import numpy as np
 
+from ..colour import mean_lab
+
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
 from .geometry import covered_pixels, gap_between, overlap_share, project
@@ -51,6 +53,7 @@ class ObjectFacts:
     cavity: Cavity | None = None
     is_support: bool = False  # its top face may hold other objects (plate, book, box...)
     pose_world: np.ndarray | None = None  # 4x4 world <- object
+    lab: tuple[float, float, float] | None = None  # CIE Lab of the visible pixels' mean colour (None if unseen)
 
     @cached_property
     def center_world_m(self) -> np.ndarray:
@@ -185,6 +188,7 @@ def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px
         front_side=asset.front_side, volume_m3=asset.visual.volume_m3,
         centroid_px=(float(cols.mean() + 0.5), float(rows.mean() + 0.5)) if px else None,
         visible_share=share, cavity=asset.cavity, is_support=asset.support, pose_world=T,
+        lab=mean_lab(view.rgb[rows, cols]),
     )
 
 
