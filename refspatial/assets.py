@@ -10,6 +10,7 @@ generator state.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import re
@@ -379,17 +380,19 @@ def build_asset(catalogue: Catalogue, category: str, rng: np.random.Generator, c
     material = spec.materials[int(rng.integers(len(spec.materials)))]
     color = drawn if color is None else color
     visual, parts = _geometry(spec, params)
+    flat = spec.mesh.rgb if spec.mesh is not None and spec.mesh.rgb is not None else catalogue.colors[color]
     return Asset(
-        category=category, name=spec.name, color=color, rgba=(*catalogue.colors[color], 1.0), material=material,
+        category=category, name=spec.name, color=color, rgba=(*flat, 1.0), material=material,
         visual=visual, collision=parts, front_local=spec.front_vector, front_side=spec.front_side, params=params,
         licence=spec.licence, cavity=spec.cavity.evaluate(params) if spec.cavity else None, support=spec.support,
+        texture=spec.mesh.texture if spec.mesh is not None else None,
     )
 
 
 def _geometry(spec: CategorySpec, params: dict[str, float]) -> tuple[MeshData, tuple[MeshData, ...]]:
     if spec.mesh is not None:
         k = params["scale"]
-        scaled = (MeshData(m.vertices_m * k, m.faces) for m in (spec.mesh.visual, *spec.mesh.parts))
+        scaled = (dataclasses.replace(m, vertices_m=m.vertices_m * k) for m in (spec.mesh.visual, *spec.mesh.parts))
         visual = next(scaled)
         return visual, tuple(scaled)
     visual, parts = BUILDERS[spec.builder](params)
