@@ -108,6 +108,7 @@ class Catalogue:
     materials: dict[str, MaterialSpec]
     sha256: str  # of the file bytes (and of every imported mesh), so records can name the catalogue
     groups: dict[str, str] | None = None  # group word -> what belongs in it
+    libraries: Any = None  # a library.LibraryMix when a run draws objects from asset libraries too
 
 
 # ---------------------------------------------------------------- loading and validation

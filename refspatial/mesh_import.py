@@ -275,20 +275,26 @@ def import_mesh(mesh_path: Path, annotation_path: Path | None = None, cache_dir:
     mesh_path = Path(mesh_path)
     note_path = Path(annotation_path) if annotation_path is not None else annotation_path_for(mesh_path)
     note = load_annotation(note_path)
+    return import_annotated(mesh_path, note, note_path, note_path.read_bytes(), cache_dir)
+
+
+def import_annotated(mesh_path: Path, note: MeshAnnotation, where: Path, note_bytes: bytes,
+                     cache_dir: Path | None = None) -> ImportedMesh:
+    """``import_mesh`` with the annotation already read (from a YAML file or a table row at `where`)."""
     vertices, faces, surface = read_mesh_surface(mesh_path)
     try:
         mesh, corner_uv = normalise_textured(vertices, faces, note, surface.corner_uv)
     except MeshImportError as exc:
-        raise MeshImportError(f"{note_path}: {exc}") from None
+        raise MeshImportError(f"{where}: {exc}") from None
     parts, method = convex_parts(mesh, note.collision, cache_dir)
-    digest = hashlib.sha256(mesh_path.read_bytes())  # (a .gltf's external .bin files are not included)
-    digest.update(note_path.read_bytes())
+    digest = hashlib.sha256(Path(mesh_path).read_bytes())  # (a .gltf's external .bin files are not included)
+    digest.update(note_bytes)
     if surface.texture is not None:  # an OBJ's map lives in another file: its pixels count too
         digest.update(surface.texture.key.encode())
     return ImportedMesh(
         annotation=note,
-        annotation_path=note_path,
-        mesh_path=mesh_path,
+        annotation_path=Path(where),
+        mesh_path=Path(mesh_path),
         visual=with_texcoords(_data(mesh), corner_uv),
         parts=tuple(_data(p) for p in parts),
         sha256=digest.hexdigest(),

@@ -22,6 +22,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 from refspatial.assets import Catalogue, MaterialSpec, load_catalogue
 from refspatial.compose import SceneRejected
+from refspatial.library import LibraryError, attach
 from refspatial.mjcf import TABLE_THICKNESS_M
 from refspatial.pipeline import build_scene
 from refspatial.recipe import Recipe, RecipeError, load_recipe
@@ -39,7 +40,8 @@ def export_usd(dataset_dir: Path, out_dir: Path, *, ascii: bool = False, overwri
     """Write ``<scene_id>.usdc`` (or .usda with ``ascii``) for every scene of a dataset."""
     dataset = open_dataset(dataset_dir, ())
     manifest = read_manifest(dataset_dir)
-    recipe, catalogue = _recipe(dataset_dir, manifest), _catalogue(dataset_dir, manifest)
+    recipe, catalogue = _libraries(dataset_dir, manifest, _recipe(dataset_dir, manifest),
+                                   _catalogue(dataset_dir, manifest))
     records = stages = 0
     with staged(out_dir, overwrite) as tmp:
         for views in scenes(dataset):
@@ -76,6 +78,22 @@ def _catalogue(dataset_dir: Path, manifest: dict) -> Catalogue:
                           f"scene_assets/catalogue.yaml is now {catalogue.sha256[:12]}; restore that "
                           "catalogue to rebuild the meshes")
     return catalogue
+
+
+def _libraries(dataset_dir: Path, manifest: dict, recipe: Recipe, catalogue: Catalogue) -> tuple[Recipe, Catalogue]:
+    """The asset libraries the run drew from, found where the manifest says and checked by hash."""
+    recorded = manifest.get("libraries", [])
+    if not recorded and not recipe.option("libraries", "sha256"):
+        return recipe, catalogue
+    try:
+        attached, catalogue = attach(recipe, catalogue, [Path(r["path"]) for r in recorded])
+    except LibraryError as e:
+        raise ExportError(f"DIR {dataset_dir} was made with asset libraries that cannot be used now ({e}); "
+                          "put them back where its manifest.json says") from None
+    if attached.hash != recipe.hash:
+        raise ExportError(f"DIR {dataset_dir}: its manifest names no asset libraries, but its recipe was made "
+                          "with some; put them back and list them under `libraries` in manifest.json")
+    return attached, catalogue
 
 
 def _rebuild(recipe: Recipe, catalogue: Catalogue, recorded: dict) -> Scene:

@@ -34,6 +34,7 @@ def object_record(obj: PlacedObject, facts: ObjectFacts) -> dict:
         "rgba": rounded(a.rgba, 4),
         "material": a.material,
         "licence": a.licence,
+        **({"source": a.source} if a.source != "procedural" else {}),  # library assets: where the mesh came from
         "params": {k: round(float(v), DIGITS) for k, v in sorted(a.params.items())},
         "pose": {"pos_world_m": rounded(obj.pose.pos_world_m), "quat_wxyz": rounded(obj.pose.quat_wxyz)},
         "box_world": {"center_m": rounded(R @ ((lo + hi) / 2) + obj.pose.pos_world_m), "size_m": rounded(hi - lo),
