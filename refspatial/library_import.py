@@ -262,6 +262,7 @@ def import_library(src: Path, out: Path, workers: int = 1, cache_dir: Path | Non
     if out.exists() and not (out / INDEX).is_file() and (not out.is_dir() or any(out.iterdir())):
         raise LibraryError(f"--out {out}: exists and is not an asset library; choose a new or empty folder")
     items, skipped = find_items(src)
+    total = len(items) + len(skipped)
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir().parent
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -286,7 +287,7 @@ def import_library(src: Path, out: Path, workers: int = 1, cache_dir: Path | Non
             if on_skip:
                 on_skip(rel, reason)
         if not entries:
-            raise LibraryError(f"{src}: none of {len(items) + len(skipped)} meshes could be imported; "
+            raise LibraryError(f"{src}: none of {total} meshes could be imported; "
                                "fix the reasons listed above")
         entries.sort(key=lambda e: e["id"])
         sha = library_sha256(entries)
