@@ -99,7 +99,9 @@ def test_bad_meshes_are_skipped_with_their_reason(tmp_path: Path) -> None:
 @pytest.mark.parametrize("problem, words", [
     ("both tables", "keep one of them"), ("unknown column", "unknown column 'colour'"),
     ("nothing importable", "none of 1 meshes"), ("out is a file", "not an asset library")])
-def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path: Path, capsys, problem: str, words: str) -> None:
+def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path: Path, capsys, monkeypatch, problem: str,
+                                                          words: str) -> None:
+    monkeypatch.setenv("REFSPATIAL_CACHE", str(tmp_path / "cache"))
     src = _source(tmp_path, "jsonl")
     out = tmp_path / "lib"
     if problem == "both tables":
@@ -115,6 +117,7 @@ def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path: Path, capsys
     assert words in err[-1] and err[-1].startswith("refspatial: error:")
     assert (out.read_text() == "precious") if problem == "out is a file" else not out.exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging folder left
+    assert not (tmp_path / "cache" / "library").exists() or problem == "nothing importable"
 
 
 def test_a_second_import_comes_from_the_cache(lib: Path, tmp_path: Path, monkeypatch) -> None:
