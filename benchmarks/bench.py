@@ -9,6 +9,8 @@
    segmentation of every view) at the same resolution and quality settings, on the
    same core.
 3. Optionally N scenes with K worker processes on all cores (scaling).
+4. Optionally (--library-assets N) the same scenes drawing half their objects from a synthetic
+   asset library of N textured meshes (benchmarks/library_bench.py), against none.
 The ratio of (1) to (2) says how close the pipeline runs to the renderer's limit.
 
 Both (1) and (2) run on one core with Mesa's rasteriser single-threaded, as every worker of
@@ -89,6 +91,9 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=0, help="also time a run with this many processes")
     parser.add_argument("--scaling-scenes", type=int, default=0,
                         help="scenes for the run with --workers (default: 24 per worker, so start-up does not dominate)")
+    parser.add_argument("--library-assets", type=int, default=0,
+                        help="also time generation drawing half its objects from a synthetic library of this many assets")
+    parser.add_argument("--library-scenes", type=int, default=0, help="scenes for that (default: --scenes)")
     args = parser.parse_args()
     all_cores = os.sched_getaffinity(0)
     os.sched_setaffinity(0, {min(all_cores)})
@@ -135,6 +140,11 @@ def main() -> None:
         print(f"\n{args.workers} worker processes on {len(all_cores)} cores, {n} scenes (start-up included): "
               f"{wall:.2f} s, {m['records'] / wall:.2f} records/s, {m['qa'] / wall:.1f} QA/s "
               f"(speed-up {(m['records'] / wall) / (records / e2e_s):.2f}x over one core)")
+    if args.library_assets > 0:
+        from library_bench import run as library_run
+
+        os.sched_setaffinity(0, {min(all_cores)})
+        library_run(recipe, catalogue, args.library_assets, args.library_scenes or args.scenes, len(all_cores))
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"\npeak RSS of this process: {peak:.0f} MB")
     sys.stdout.flush()

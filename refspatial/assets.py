@@ -10,6 +10,7 @@ generator state.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import re
@@ -108,6 +109,7 @@ class Catalogue:
     materials: dict[str, MaterialSpec]
     sha256: str  # of the file bytes (and of every imported mesh), so records can name the catalogue
     groups: dict[str, str] | None = None  # group word -> what belongs in it
+    libraries: Any = None  # a library.LibraryMix when a run draws objects from asset libraries too
 
 
 # ---------------------------------------------------------------- loading and validation
@@ -381,12 +383,14 @@ def build_asset(catalogue: Catalogue, category: str, rng: np.random.Generator, c
     material = spec.materials[int(rng.integers(len(spec.materials)))]
     color = drawn if color is None else color
     visual, parts = _geometry(spec, params)
-    texture = None
+    flat = spec.mesh.rgb if spec.mesh is not None and spec.mesh.rgb is not None else catalogue.colors[color]
+    texture = spec.mesh.texture if spec.mesh is not None else None
     if visual.texcoords is None:  # an imported mesh brings its own texture; procedural ones get a look
-        visual, texture = dress(load_looks(), category, material, catalogue.colors[color], params, visual)
+        visual, texture = dress(load_looks(), category, material, flat, params, visual)
     return Asset(
-        category=category, name=spec.name, color=color, rgba=(*catalogue.colors[color], 1.0), material=material,
-        visual=visual, collision=parts, texture=texture, front_local=spec.front_vector, front_side=spec.front_side, params=params,
+        category=category, name=spec.name, color=color, rgba=(*flat, 1.0), material=material,
+        visual=visual, collision=parts, texture=texture, front_local=spec.front_vector, front_side=spec.front_side,
+        params=params,
         licence=spec.licence, cavity=spec.cavity.evaluate(params) if spec.cavity else None, support=spec.support,
     )
 
@@ -394,7 +398,7 @@ def build_asset(catalogue: Catalogue, category: str, rng: np.random.Generator, c
 def _geometry(spec: CategorySpec, params: dict[str, float]) -> tuple[MeshData, tuple[MeshData, ...]]:
     if spec.mesh is not None:
         k = params["scale"]
-        scaled = (MeshData(m.vertices_m * k, m.faces) for m in (spec.mesh.visual, *spec.mesh.parts))
+        scaled = (dataclasses.replace(m, vertices_m=m.vertices_m * k) for m in (spec.mesh.visual, *spec.mesh.parts))
         visual = next(scaled)
         return visual, tuple(scaled)
     visual, parts = BUILDERS[spec.builder](params)

@@ -44,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--calibrate", type=_nonnegative, default=3,
                    help="scenes made in a temporary folder to calibrate --dry-run estimates (default: 3)")
     g.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    _library_args(g)
 
     s = sub.add_parser("stats", help="print counts of scenes, records, QA, predicates, steps and categories")
     s.add_argument("dir", type=Path, nargs="+",
@@ -56,6 +57,14 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--recipe", default="tabletop")
     c.add_argument("--seed", type=int, required=True, help="the scene seed (a record's scene.seed)")
     c.add_argument("--mjcf", type=Path, required=True, help="output .xml path")
+    _library_args(c)
+
+    a = sub.add_parser("assets", help="build an asset library from your own annotated meshes")
+    actions = a.add_subparsers(dest="action", metavar="ACTION", required=True)
+    ai = actions.add_parser("import", help="import a folder of meshes (+ YAML beside each, or annotations.csv/.jsonl)")
+    ai.add_argument("src", type=Path, help="folder of meshes (GLB/GLTF, OBJ+MTL, STL, PLY, USD)")
+    ai.add_argument("--out", type=Path, required=True, help="library folder to write (replaced whole when complete)")
+    ai.add_argument("--workers", type=_positive, default=1, help="import processes (default: 1)")
 
     v = sub.add_parser("verify", help="re-execute every stored program and check every answer and checksum")
     v.add_argument("dir", type=Path)
@@ -69,6 +78,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("recipes", help="list the recipes shipped in recipes/")
     return parser
+
+
+def _library_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--assets", type=Path, action="append", metavar="LIB", default=[],
+                        help="asset library made by `refspatial assets import` (repeat for several)")
+    parser.add_argument("--asset-share", type=float, metavar="F",
+                        help="share of each scene's objects drawn from the libraries, 0..1 (default: the "
+                        "recipe's libraries.share, else 0.5)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -91,8 +108,9 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .recipe import RecipeError
     from .records import ShardError
     from .shards import RunError
+    from .library import LibraryError
 
-    return (RecipeError, CatalogueError, RunError, ShardError, ExportError, ReportError, ShowError,
+    return (LibraryError, RecipeError, CatalogueError, RunError, ShardError, ExportError, ReportError, ShowError,
             FileNotFoundError, NotADirectoryError)
 
 
@@ -107,8 +125,9 @@ def _generate(args: argparse.Namespace) -> int:
     from .shards import RunError, RunFailed, generate
 
     executor = choose_executor(args.executor, args.address, args.workers, args.gpus_per_task)
-    recipe = load_recipe(args.recipe)
-    catalogue = load_catalogue()
+    from .library import attach
+
+    recipe, catalogue = attach(load_recipe(args.recipe), load_catalogue(), args.assets, args.asset_share)
     try:
         category_pool(recipe, catalogue)
     except ValueError as exc:
@@ -161,8 +180,9 @@ def _scene(args: argparse.Namespace) -> int:
     from .recipe import load_recipe
     from .shards import RunError
 
-    recipe = load_recipe(args.recipe)
-    catalogue = load_catalogue()
+    from .library import attach
+
+    recipe, catalogue = attach(load_recipe(args.recipe), load_catalogue(), args.assets, args.asset_share)
     if args.mjcf.suffix != ".xml":
         raise RunError(f"--mjcf {args.mjcf}: expected a path ending in .xml")
     try:
@@ -201,6 +221,18 @@ def _export(args: argparse.Namespace) -> int:
     return args.func(args)
 
 
+def _assets(args: argparse.Namespace) -> int:
+    """Exit 0 when a library was written (skipped meshes are listed, one line each), 2 when
+    nothing could be imported or the input is unusable."""
+    from .library_import import import_library
+
+    summary = import_library(args.src, args.out, args.workers,
+                             on_skip=lambda rel, reason: print(f"skipped {rel}: {reason}", file=sys.stderr))
+    print(f"imported {summary.imported} assets ({summary.cached} from the cache), skipped {len(summary.skipped)}, "
+          f"into {summary.out} (library sha256 {summary.sha256[:16]})")
+    return 0
+
+
 def _recipes(args: argparse.Namespace) -> int:
     from .recipe import available
 
@@ -209,7 +241,7 @@ def _recipes(args: argparse.Namespace) -> int:
 
 
 COMMANDS = {"generate": _generate, "stats": _stats, "scene": _scene, "verify": _verify, "export": _export,
-            "show": _show,
+            "show": _show, "assets": _assets,
             "recipes": _recipes}
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from .assets import Catalogue, build_asset
+from .library import mix_in
 from .recipe import Recipe
 from .relations.geometry import inside_convex
 from .room import sample_lights, sample_room
@@ -44,6 +45,9 @@ def compose(recipe: Recipe, catalogue: Catalogue, seed: int) -> Scene:
     if recipe.option("furniture", "count")[1] > 0:  # no draw otherwise: older recipes keep their scenes
         furniture = _sample_furniture(recipe, catalogue, stage_rng(recipe.hash, seed, "furniture"))
     assets = furniture + _sample_assets(recipe, catalogue, stage_rng(recipe.hash, seed, "assets"))
+    if catalogue.libraries is not None:  # a stage of its own: runs without libraries draw exactly as before
+        assets = furniture + mix_in(assets[len(furniture):], catalogue.libraries, catalogue.colors,
+                                    recipe["objects"]["repeat_category"], stage_rng(recipe.hash, seed, "library"))
     objects = _place(recipe, table, assets, len(furniture), stage_rng(recipe.hash, seed, "layout"))
     room = sample_room(recipe, table, stage_rng(recipe.hash, seed, "room"))
     # The top is the room's table-top surface: records name what is rendered.

@@ -44,7 +44,8 @@ class ImageTally:
         self.records_with_void += void > 0
         for o in scene["objects"]:
             self.object_looks[(o.get("texture") or "untextured").split("/")[0]] += 1
-            self.sources[o.get("source", "procedural")] += 1
+            procedural = o.get("source", "procedural") == "procedural"  # a library asset's source is its origin
+            self.sources["procedural" if procedural else "asset library"] += 1
         room = scene.get("room")
         if room is not None and scene.get("view_index", 0) == 0:  # a scene's room and lights, once
             for kind, s in room["surfaces"].items():

@@ -15,6 +15,10 @@ small YAML annotation (``mug.glb`` -> ``mug.yaml`` beside it, unless named other
     source: https://example.org/mug
     collision: {method: coacd, threshold: 0.05}   # optional; or {method: hull}
 
+GLB/GLTF base-colour textures and OBJ+MTL ``map_Kd`` textures come along with their texture
+coordinates (``refspatial.mesh_texture``); a material with a base colour but no image gives
+the asset that flat colour.
+
 Import moves the mesh into the object frame (up -> +z, front -> +x, footprint centre on the
 origin, lowest point on z=0, metres) and splits it into convex parts with CoACD, so a cup
 stays hollow in physics. Decompositions take seconds, so they are cached on disk per
@@ -27,64 +31,31 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
-import re
 import tempfile
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
-import yaml
 
-from .scene import MeshData
+from .mesh_annotation import (  # noqa: F401  (re-exported: callers import them from here)
+    COACD_DEFAULTS,
+    MeshAnnotation,
+    MeshImportError,
+    annotation_from_dict,
+    annotation_path_for,
+    load_annotation,
+)
+from .mesh_texture import Surface, surface_of, with_texcoords
+from .scene import MeshData, Texture
 
 TRIMESH_SUFFIXES = (".obj", ".glb", ".gltf", ".stl", ".ply", ".off")
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
-COACD_DEFAULTS: dict[str, Any] = {  # CoACD's own defaults, with the part count capped for MuJoCo
-    "threshold": 0.05,
-    "max_convex_hull": 32,
-    "preprocess_mode": "auto",
-    "preprocess_resolution": 50,
-    "resolution": 2000,
-    "mcts_nodes": 20,
-    "mcts_iterations": 150,
-    "mcts_max_depth": 3,
-    "seed": 0,
-}
 MIN_PART_VOLUME_M3 = 1e-10  # slivers below this (0.1 mm^3) are dropped: MuJoCo rejects them
-_REQUIRED = ("category", "name", "plural", "color", "up", "front", "licence", "source")
-_OPTIONAL = ("front_side", "scale", "size_m", "collision")
-_AXIS = re.compile(r"^([+-]?)([xyz])$")
-
-
-class MeshImportError(ValueError):
-    """A mesh or annotation that cannot be imported; one line naming the file, key and fix."""
-
-
-@dataclass(frozen=True)
-class MeshAnnotation:
-    category: str
-    name: str
-    plural: str
-    color: str
-    up: tuple[float, float, float]  # the file's up axis, unit, file frame
-    front: tuple[float, float, float]  # the semantic front, file frame
-    licence: str
-    source: str
-    front_side: str = "front"
-    scale: float | None = None  # metres per file unit
-    size_m: float | None = None  # or: the longest extent after import
-    collision: dict[str, Any] = field(default_factory=lambda: {"method": "coacd"})
-
-    @property
-    def licence_text(self) -> str:
-        """What an Asset records: the licence and, for attribution, where the mesh came from."""
-        return f"{self.licence}; source: {self.source}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,98 +67,28 @@ class ImportedMesh:
     parts: tuple[MeshData, ...]  # convex collision parts, object frame
     sha256: str  # of the mesh file and the annotation bytes
     decomposition: str  # "coacd", "hull" (asked for) or "hull-fallback" (CoACD missing)
-
-
-# ---------------------------------------------------------------- annotation
-
-
-def annotation_path_for(mesh_path: Path) -> Path:
-    return Path(mesh_path).with_suffix(".yaml")
-
-
-def load_annotation(path: Path) -> MeshAnnotation:
-    """Read and validate an annotation file; every problem names the file and the key."""
-    try:
-        doc = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise MeshImportError(f"{path}: cannot read the annotation ({' '.join(str(exc).split())})") from exc
-    if not isinstance(doc, dict):
-        raise MeshImportError(f"{path}: expected a mapping of {', '.join(_REQUIRED)}")
-    for key in (k for k in _REQUIRED if k not in doc):
-        raise MeshImportError(f"{path}: missing key {key!r}; add it (required: {', '.join(_REQUIRED)})")
-    for key in (k for k in doc if k not in _REQUIRED + _OPTIONAL):
-        raise MeshImportError(f"{path}: {key}: unknown key; remove it or use one of {', '.join(_REQUIRED + _OPTIONAL)}")
-    texts = {k: _text(path, k, doc[k]) for k in ("category", "name", "plural", "color", "licence", "source")}
-    if ("scale" in doc) == ("size_m" in doc):
-        raise MeshImportError(
-            f"{path}: give exactly one of scale (metres per file unit) or size_m (longest extent, metres)"
-        )
-    size_key = "scale" if "scale" in doc else "size_m"
-    return MeshAnnotation(
-        **texts,
-        up=_axis(path, doc["up"]),
-        front=_vector(path, doc["front"]),
-        front_side=_text(path, "front_side", doc.get("front_side", "front")),
-        **{size_key: _positive(path, size_key, doc[size_key])},
-        collision=_collision(path, doc.get("collision")),
-    )
-
-
-def _text(path: Path, key: str, value: Any) -> str:
-    if not isinstance(value, str) or not value.strip():
-        raise MeshImportError(f"{path}: {key}: expected a non-empty word or phrase, got {value!r}")
-    return value
-
-
-def _positive(path: Path, key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise MeshImportError(f"{path}: {key}: expected a positive number, got {value!r}")
-    return float(value)
-
-
-def _axis(path: Path, value: Any) -> tuple[float, float, float]:
-    match = _AXIS.match(str(value).strip().lower())
-    if not match:
-        raise MeshImportError(f"{path}: up: expected one of +x, -x, +y, -y, +z, -z, got {value!r}")
-    vector = np.zeros(3)
-    vector["xyz".index(match.group(2))] = -1.0 if match.group(1) == "-" else 1.0
-    return tuple(vector)  # type: ignore[return-value]
-
-
-def _vector(path: Path, value: Any) -> tuple[float, float, float]:
-    ok = (
-        isinstance(value, list)
-        and len(value) == 3
-        and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-    )
-    if not ok or np.linalg.norm(value) < 1e-9:
-        raise MeshImportError(f"{path}: front: expected a non-zero vector [x, y, z] in the file's axes, got {value!r}")
-    v = np.asarray(value, dtype=float)
-    return tuple(v / np.linalg.norm(v))  # type: ignore[return-value]
-
-
-def _collision(path: Path, value: Any) -> dict[str, Any]:
-    settings = dict(value or {"method": "coacd"})
-    method = settings.pop("method", "coacd")
-    if method == "hull" and not settings:
-        return {"method": "hull"}
-    if method != "coacd":
-        raise MeshImportError(f"{path}: collision.method: expected coacd or hull, got {method!r}")
-    for key in (k for k in settings if k not in COACD_DEFAULTS):
-        raise MeshImportError(f"{path}: collision.{key}: unknown CoACD setting; use {', '.join(COACD_DEFAULTS)}")
-    return {"method": "coacd", **COACD_DEFAULTS, **settings}
+    texture: Texture | None = None  # mapped through visual.texcoords
+    rgb: tuple[float, float, float] | None = None  # the material's flat base colour, when it has no image
 
 
 # ---------------------------------------------------------------- reading
 
 
+
 def read_mesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """(vertices (N, 3) float64, faces (M, 3) int64) in the file's own units and axes, every
     part of a multi-mesh file merged with its scene transform applied."""
+    vertices, faces, _ = read_mesh_surface(path)
+    return vertices, faces
+
+
+def read_mesh_surface(path: Path) -> tuple[np.ndarray, np.ndarray, Surface]:
+    """As ``read_mesh``, with the base-colour texture and per-corner UVs, or flat colour, of
+    GLB/GLTF and OBJ+MTL files (USD, STL and PLY import as geometry only)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in USD_SUFFIXES:
-        return _read_usd(path)
+        return (*_read_usd(path), Surface())
     if suffix not in TRIMESH_SUFFIXES:
         known = ", ".join(TRIMESH_SUFFIXES + USD_SUFFIXES)
         raise MeshImportError(f"{path}: unsupported mesh format {suffix!r}; convert it to one of {known}")
@@ -197,7 +98,8 @@ def read_mesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
         raise MeshImportError(f"{path}: cannot read the mesh ({' '.join(str(exc).split())})") from exc
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise MeshImportError(f"{path}: the file holds no triangles; export the object as a triangle mesh")
-    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    return np.asarray(mesh.vertices, dtype=np.float64), faces, surface_of(mesh)
 
 
 def _read_usd(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -259,6 +161,14 @@ def frame_rotation(up: tuple[float, float, float], front: tuple[float, float, fl
 def normalise(vertices: np.ndarray, faces: np.ndarray, note: MeshAnnotation) -> trimesh.Trimesh:
     """The mesh in the object frame: rotated, scaled to metres, footprint centre at the origin
     and lowest point on z=0."""
+    return normalise_textured(vertices, faces, note, None)[0]
+
+
+def normalise_textured(vertices: np.ndarray, faces: np.ndarray, note: MeshAnnotation,
+                       corner_uv: np.ndarray | None) -> tuple[trimesh.Trimesh, np.ndarray | None]:
+    """``normalise``, carrying each face corner's uv along: merging duplicate positions only
+    renumbers vertices (faces keep their order), and turning an inside-out mesh reverses every
+    face's corners, so the uvs are reversed with them."""
     v = np.asarray(vertices, dtype=np.float64) @ frame_rotation(note.up, note.front).T
     extent = float(np.ptp(v, axis=0).max())
     if extent <= 0:
@@ -268,9 +178,16 @@ def normalise(vertices: np.ndarray, faces: np.ndarray, note: MeshAnnotation) -> 
     v -= [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]]
     mesh = trimesh.Trimesh(v, faces, process=True)
     mesh.remove_unreferenced_vertices()
+    corners = v[np.asarray(faces)]
     if mesh.is_watertight and mesh.volume < 0:
         mesh.invert()
-    return mesh
+        corners = corners[:, ::-1]
+        corner_uv = None if corner_uv is None else corner_uv[:, ::-1]
+    aligned = len(mesh.faces) == len(corners) and np.allclose(mesh.vertices[mesh.faces], corners, atol=1e-9)
+    if corner_uv is not None and not aligned:
+        raise MeshImportError("reading dropped or reordered faces (non-finite vertices?), so the texture "
+                              "coordinates cannot follow them; re-export the mesh with finite vertices")
+    return mesh, corner_uv
 
 
 def mesh_sha256(mesh: trimesh.Trimesh) -> str:
@@ -358,22 +275,32 @@ def import_mesh(mesh_path: Path, annotation_path: Path | None = None, cache_dir:
     mesh_path = Path(mesh_path)
     note_path = Path(annotation_path) if annotation_path is not None else annotation_path_for(mesh_path)
     note = load_annotation(note_path)
-    vertices, faces = read_mesh(mesh_path)
+    return import_annotated(mesh_path, note, note_path, note_path.read_bytes(), cache_dir)
+
+
+def import_annotated(mesh_path: Path, note: MeshAnnotation, where: Path, note_bytes: bytes,
+                     cache_dir: Path | None = None) -> ImportedMesh:
+    """``import_mesh`` with the annotation already read (from a YAML file or a table row at `where`)."""
+    vertices, faces, surface = read_mesh_surface(mesh_path)
     try:
-        mesh = normalise(vertices, faces, note)
+        mesh, corner_uv = normalise_textured(vertices, faces, note, surface.corner_uv)
     except MeshImportError as exc:
-        raise MeshImportError(f"{note_path}: {exc}") from None
+        raise MeshImportError(f"{where}: {exc}") from None
     parts, method = convex_parts(mesh, note.collision, cache_dir)
-    digest = hashlib.sha256(mesh_path.read_bytes())  # (a .gltf's external .bin files are not included)
-    digest.update(note_path.read_bytes())
+    digest = hashlib.sha256(Path(mesh_path).read_bytes())  # (a .gltf's external .bin files are not included)
+    digest.update(note_bytes)
+    if surface.texture is not None:  # an OBJ's map lives in another file: its pixels count too
+        digest.update(surface.texture.key.encode())
     return ImportedMesh(
         annotation=note,
-        annotation_path=note_path,
-        mesh_path=mesh_path,
-        visual=_data(mesh),
+        annotation_path=Path(where),
+        mesh_path=Path(mesh_path),
+        visual=with_texcoords(_data(mesh), corner_uv),
         parts=tuple(_data(p) for p in parts),
         sha256=digest.hexdigest(),
         decomposition=method,
+        texture=surface.texture,
+        rgb=surface.rgb,
     )
 
 

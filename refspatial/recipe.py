@@ -120,6 +120,19 @@ def _folder(v: Any) -> str | None:
     return None if v is None or (isinstance(v, str) and v.strip()) else "expected a folder path or null"
 
 
+def _paths(v: Any) -> str | None:
+    if isinstance(v, list) and all(isinstance(p, str) and p.strip() for p in v):
+        return None
+    return "expected a list of asset-library folders"
+
+
+def _hashes(v: Any) -> str | None:
+    hexdigits = set("0123456789abcdef")
+    if isinstance(v, list) and all(isinstance(h, str) and len(h) == 64 and set(h) <= hexdigits for h in v):
+        return None
+    return "expected a list of sha256 hex digests (leave it out: runs fill it in)"
+
+
 def _one_of(*allowed: str) -> Callable:
     def check(v: Any) -> str | None:
         return None if v in allowed else f"expected one of {list(allowed)}"
@@ -210,6 +223,11 @@ OPTIONAL: dict[str, dict[str, tuple[Callable[[Any], str | None], Any]]] = {
         "count": (_range(0, 20, integer=True), [0, 0]),
         "categories": (_categories, "all"),
     },
+    "libraries": {  # asset libraries made by `refspatial assets import` (refspatial/library.py)
+        "paths": (_paths, []),  # folders, relative to this recipe's folder; --assets adds more
+        "share": (_scalar(0, 1), 0.5),  # share of each scene's objects drawn from them
+        "sha256": (_hashes, []),  # written by the run: the libraries' content hashes (paths are dropped)
+    },
 }
 TOP_LEVEL = {"name", "description", "extends", *SCHEMA, *OPTIONAL}
 
@@ -241,9 +259,12 @@ def load_recipe(name_or_path: str) -> Recipe:
     text = path.read_text(encoding="utf-8")
     data = _resolve(path, seen=())
     _validate(path, data)
-    canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
-    digest = hashlib.sha256(canonical.encode()).hexdigest()
-    return Recipe(name=data["name"], path=path, data=data, text=text, hash=digest)
+    return Recipe(name=data["name"], path=path, data=data, text=text, hash=recipe_hash(data))
+
+
+def recipe_hash(data: dict[str, Any]) -> str:
+    """The sha256 of the resolved recipe's canonical JSON."""
+    return hashlib.sha256(json.dumps(data, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
 
 
 def _read_yaml(path: Path) -> dict[str, Any]:

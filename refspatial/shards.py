@@ -175,6 +175,8 @@ def _shard_metadata(job: ShardJob) -> dict[str, dict[str, str]]:
             "catalogue_sha256": job.catalogue.sha256,
             "base_seed": str(job.base_seed),
             "scenes": f"{job.start}-{job.stop}",
+            **({"libraries": json.dumps(job.catalogue.libraries.manifest(), sort_keys=True)}
+               if job.catalogue.libraries is not None else {}),
         },
         "recipe": {"name": job.recipe.name, "yaml": job.recipe.text, "resolved_yaml": job.recipe.resolved_yaml,
                    "resolved_json": json.dumps(job.recipe.data, sort_keys=True)},
@@ -382,6 +384,7 @@ def build_manifest(recipe: Recipe, catalogue: Catalogue, base_seed: int, scenes_
         "recipe_yaml": recipe.text,
         "recipe_resolved_yaml": recipe.resolved_yaml,  # loads on its own, parents and all
         "catalogue_sha256": catalogue.sha256,
+        **({"libraries": catalogue.libraries.manifest()} if catalogue.libraries is not None else {}),
         "base_seed": base_seed,
         "scenes_per_shard": scenes_per_shard,
         "scenes": scenes,

@@ -13,31 +13,38 @@ T_world_cam (OpenCV: +z forward, +y down) times diag(1, -1, -1).
 
 from __future__ import annotations
 
+import hashlib
+import re
+
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 from refspatial.assets import Catalogue, MaterialSpec, load_catalogue
 from refspatial.compose import SceneRejected
+from refspatial.library import LibraryError, attach
 from refspatial.mjcf import TABLE_THICKNESS_M
 from refspatial.pipeline import build_scene
 from refspatial.recipe import Recipe, RecipeError, load_recipe
-from refspatial.scene import Scene
+from refspatial.scene import Scene, Texture
 
 from .common import FAR_PLANE_M, ExportError, ExportSummary, finish, open_dataset, read_manifest, scenes, staged
 
 NEAR_PLANE_M = 0.02  # MuJoCo znear 0.01 x extent 2 m (mjcf.py)
 SENSOR_HEIGHT = 24.0  # vertical aperture, in the focal length's unit; only their ratio projects
 CV_TO_GL = np.diag([1.0, -1.0, -1.0])
+TEXTURE_DIR = "textures"  # imported meshes' images, as PNG beside the stages that use them
 
 
 def export_usd(dataset_dir: Path, out_dir: Path, *, ascii: bool = False, overwrite: bool = False) -> ExportSummary:
     """Write ``<scene_id>.usdc`` (or .usda with ``ascii``) for every scene of a dataset."""
     dataset = open_dataset(dataset_dir, ())
     manifest = read_manifest(dataset_dir)
-    recipe, catalogue = _recipe(dataset_dir, manifest), _catalogue(dataset_dir, manifest)
+    recipe, catalogue = _libraries(dataset_dir, manifest, _recipe(dataset_dir, manifest),
+                                   _catalogue(dataset_dir, manifest))
     records = stages = 0
     with staged(out_dir, overwrite) as tmp:
         for views in scenes(dataset):
@@ -74,6 +81,22 @@ def _catalogue(dataset_dir: Path, manifest: dict) -> Catalogue:
                           f"scene_assets/catalogue.yaml is now {catalogue.sha256[:12]}; restore that "
                           "catalogue to rebuild the meshes")
     return catalogue
+
+
+def _libraries(dataset_dir: Path, manifest: dict, recipe: Recipe, catalogue: Catalogue) -> tuple[Recipe, Catalogue]:
+    """The asset libraries the run drew from, found where the manifest says and checked by hash."""
+    recorded = manifest.get("libraries", [])
+    if not recorded and not recipe.option("libraries", "sha256"):
+        return recipe, catalogue
+    try:
+        attached, catalogue = attach(recipe, catalogue, [Path(r["path"]) for r in recorded])
+    except LibraryError as e:
+        raise ExportError(f"DIR {dataset_dir} was made with asset libraries that cannot be used now ({e}); "
+                          "put them back where its manifest.json says") from None
+    if attached.hash != recipe.hash:
+        raise ExportError(f"DIR {dataset_dir}: its manifest names no asset libraries, but its recipe was made "
+                          "with some; put them back and list them under `libraries` in manifest.json")
+    return attached, catalogue
 
 
 def _rebuild(recipe: Recipe, catalogue: Catalogue, recorded: dict) -> Scene:
@@ -155,9 +178,46 @@ def _object(stage: Usd.Stage, obj, rec: dict, spec: MaterialSpec) -> None:
     for k in ("category", "name", "color", "material"):
         prim.SetCustomDataByKey(f"refspatial:{k}", rec[k])
     prim.SetCustomDataByKey("refspatial:id", obj.object_id)
-    rgba = obj.asset.rgba
+    rgba, visual, texture = obj.asset.rgba, obj.asset.visual, obj.asset.texture
     material = _material(stage, name, rgba[:3], _roughness(spec))
-    _mesh(stage, f"/World/Objects/{name}/visual", obj.asset.visual.vertices_m, obj.asset.visual.faces, rgba, material)
+    mesh = _mesh(stage, f"/World/Objects/{name}/visual", visual.vertices_m, visual.faces, rgba, material)
+    if texture is not None and visual.face_texcoords is not None:
+        _texture(stage, material, texture)
+        st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                                     UsdGeom.Tokens.faceVarying)
+        st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(visual.texcoords, dtype=np.float32)))
+        st.SetIndices(Vt.IntArray.FromNumpy(np.ascontiguousarray(visual.face_texcoords.ravel(), dtype=np.int32)))
+
+
+def texture_file_name(key: str) -> str:
+    """A safe, unique file name for a texture key (procedural keys hold '/', image keys are long
+    hashes): readable prefix, then a digest of the whole key so two keys never share a file."""
+    readable = re.sub(r"[^A-Za-z0-9_.-]", "_", key)[:40]
+    return f"{readable}-{hashlib.sha256(key.encode()).hexdigest()[:10]}.png"
+
+
+def _texture(stage: Usd.Stage, material: UsdShade.Material, texture: Texture) -> None:
+    """Feed the material's diffuse colour from a PNG beside the stage (``textures/<key>.png``,
+    written once however many objects share it), looked up through the mesh's ``st`` primvar."""
+    folder = Path(stage.GetRootLayer().realPath).parent / TEXTURE_DIR
+    png = folder / texture_file_name(texture.key)
+    if not png.is_file():
+        folder.mkdir(exist_ok=True)
+        Image.fromarray(texture.rgb).save(png)
+    root = material.GetPath()
+    reader = UsdShade.Shader.Define(stage, root.AppendChild("StReader"))
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+    image = UsdShade.Shader.Define(stage, root.AppendChild("BaseColor"))
+    image.CreateIdAttr("UsdUVTexture")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(f"./{TEXTURE_DIR}/{png.name}")
+    image.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("sRGB")
+    for wrap in ("wrapS", "wrapT"):
+        image.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("repeat")
+    image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+    rgb = image.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    surface = UsdShade.Shader(stage.GetPrimAtPath(root.AppendChild("PreviewSurface")))
+    surface.GetInput("diffuseColor").ConnectToSource(rgb)
 
 
 def _roughness(spec: MaterialSpec) -> float:
