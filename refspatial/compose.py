@@ -49,11 +49,17 @@ def compose(recipe: Recipe, catalogue: Catalogue, seed: int) -> Scene:
         assets = furniture + mix_in(assets[len(furniture):], catalogue.libraries, catalogue.colors,
                                     recipe["objects"]["repeat_category"], stage_rng(recipe.hash, seed, "library"))
     objects = _place(recipe, table, assets, len(furniture), stage_rng(recipe.hash, seed, "layout"))
-    room = sample_room(recipe, table, stage_rng(recipe.hash, seed, "room"))
+    furniture_keys = _furniture_keys(catalogue)
+    colours = tuple(o.asset.rgba[:3] for o in objects if o.asset.category not in furniture_keys)
+    room = sample_room(recipe, table, stage_rng(recipe.hash, seed, "room"), object_rgbs=colours)
     # The top is the room's table-top surface: records name what is rendered.
     table = dataclasses.replace(table, rgba=(*room.top.rgb, 1.0), texture=room.top.look)
     lights = sample_lights(recipe, stage_rng(recipe.hash, seed, "light"), room.size_m, room.height_m, table.top_z_m)
     return Scene(recipe.name, recipe.hash, seed, table, objects, cameras=(), lights=lights, room=room)
+
+
+def _furniture_keys(catalogue: Catalogue) -> set[str]:
+    return {k for k, c in catalogue.categories.items() if c.group == FURNITURE_GROUP}
 
 
 def category_pool(recipe: Recipe, catalogue: Catalogue, section: str = "objects") -> list[str]:

@@ -23,7 +23,7 @@ from .paths import assets_dir
 from .scene import MeshData, Texture
 from .seeding import stable_int
 
-PATTERN_SEEDS = 4  # distinct patterns per (look, colour): enough variety, and the image cache stays small
+PATTERN_SEEDS = 2  # distinct patterns per (look, colour): variety enough, and the per-process image cache mostly hits
 DEFAULT_TILE_M = 0.12  # box projection repeat for finishes without a category entry
 SURFACE_KINDS = ("floor", "wall", "top", "furniture")
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")

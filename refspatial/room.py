@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import looks as looks_mod
+from .colour import delta_e, srgb_to_lab
 from .recipe import Recipe
 from .scene import Light, Prop, Room, Surface, Table
 
@@ -32,6 +33,8 @@ PROP_KINDS = {  # kind -> ((depth, width, height) ranges in metres)
 }
 WINDOW_M = ((1.0, 1.6), (1.0, 1.4), (0.8, 1.0))  # width, height, sill height
 DOOR_M = ((0.8, 0.95), (2.0, 2.1))  # width, height
+STAND_OUT_DELTA_E = 15.0  # an object's colour against the surface under it: clearly apart
+SUPPORT_REDRAWS = 8  # looks tried for that surface before keeping the last (rare: ~7 objects, 7 looks)
 SURFACE_TILE_M = {"floor": 1.2, "wall": 1.5, "top": 0.8, "furniture": 0.6}
 
 
@@ -43,7 +46,11 @@ def camera_clearance_m(room: Room | None, table: Table) -> float:
 
 
 def sample_room(recipe: Recipe, table: Table, rng: np.random.Generator,
-                catalogue_looks: looks_mod.Looks | None = None) -> Room:
+                catalogue_looks: looks_mod.Looks | None = None,
+                object_rgbs: tuple[tuple[float, float, float], ...] = ()) -> Room:
+    """The room; the surface the objects stand on (the top, or a floor scene's floor) is drawn
+    again, up to SUPPORT_REDRAWS times, until its colour sets off every object's colour word
+    (and a top differs in look from the floor)."""
     looks = catalogue_looks or looks_mod.load_looks()
     images = _images(recipe)
     if table.surface == "floor":  # the walls stand at the floor's edges
@@ -54,10 +61,22 @@ def sample_room(recipe: Recipe, table: Table, rng: np.random.Generator,
                 max(float(rng.uniform(ylo, yhi)), table.size_m[1] + 2 * FREE_AROUND_M))
     height = float(rng.uniform(*recipe.option("room", "height_m")))
     surfaces = {kind: _surface(looks, kind, rng, images) for kind in looks_mod.SURFACE_KINDS}
+    under = "floor" if table.surface == "floor" else "top"
+    for _ in range(SUPPORT_REDRAWS):
+        # A top in the floor's own look would melt into it: the table's edge must show.
+        apart = under == "floor" or surfaces["top"].look != surfaces["floor"].look
+        if apart and _sets_off(surfaces[under].rgb, object_rgbs):
+            break
+        surfaces[under] = _surface(looks, under, rng, images)
     props = _openings(size, rng)
     if table.surface != "floor":
         props += _furniture(size, recipe.option("room", "props"), rng)
     return Room(size, height, surfaces["floor"], surfaces["wall"], surfaces["top"], surfaces["furniture"], tuple(props))
+
+
+def _sets_off(surface_rgb: tuple[float, float, float], object_rgbs) -> bool:
+    under = srgb_to_lab(np.array(surface_rgb))
+    return all(delta_e(under, srgb_to_lab(np.array(rgb))) >= STAND_OUT_DELTA_E for rgb in object_rgbs)
 
 
 def _images(recipe: Recipe) -> tuple[Path, ...]:

@@ -84,8 +84,11 @@ def test_table_depth_matches_ray_plane_intersection(rendered):
 
 
 def test_matches_mujocos_own_renderer(rendered, catalogue):
-    """The two-pass renderer gives MuJoCo Renderer's pixels, depth and segmentation."""
+    """The two-pass renderer gives MuJoCo Renderer's pixels, depth and segmentation (the room's
+    geoms kept out of the shadow map in both, as render.py does)."""
     import mujoco
+
+    from refspatial.render import _room_casts_no_shadow
 
     from refspatial.mjcf import COLLISION_GROUP, SpecOptions, build_spec, object_of_geom
 
@@ -99,6 +102,7 @@ def test_matches_mujocos_own_renderer(rendered, catalogue):
     lookup = object_of_geom(model, len(scene.objects))
     with mujoco.Renderer(model, cam.height, cam.width) as r:
         r.update_scene(data, camera=cam.name, scene_option=option)
+        _room_casts_no_shadow(model, r.scene)
         rgb = r.render()
         r.enable_depth_rendering()
         r.update_scene(data, camera=cam.name, scene_option=option)

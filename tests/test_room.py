@@ -145,3 +145,22 @@ def test_the_mjcf_export_renders_what_the_generator_rendered(rendered, tmp_path)
             images.append(renderer.render().astype(int))
     differ = (np.abs(images[0] - images[1]).max(axis=-1) > 8).mean()
     assert differ < 0.03, f"{differ:.1%} of the pixels differ"
+
+
+def test_the_surface_under_the_objects_sets_them_off() -> None:
+    """A top whose colour matches an object's is drawn again: things stand out from what holds them."""
+    from refspatial.room import STAND_OUT_DELTA_E, sample_room
+    from refspatial.colour import srgb_to_lab
+    from refspatial.scene import Table
+
+    recipe = load_recipe("tabletop")
+    table = Table((1.2, 0.8), 0.75, (1, 1, 1, 1), "flat")
+    tried = 0
+    for seed in range(12):
+        plain = sample_room(recipe, table, np.random.default_rng(seed))
+        clash = plain.top.rgb  # an object the very colour of the first top drawn
+        dressed = sample_room(recipe, table, np.random.default_rng(seed), object_rgbs=(clash,))
+        tried += 1
+        assert delta_e(srgb_to_lab(np.array(dressed.top.rgb)), srgb_to_lab(np.array(clash))) >= STAND_OUT_DELTA_E
+        assert dressed.wall.look == plain.wall.look  # only the top is drawn again
+    assert tried == 12
