@@ -1,7 +1,8 @@
 """What each realism feature costs the renderer: ms per view with one feature taken away at a time.
 
 Scenes are built once (compose, physics, cameras); each variant renders the same views on one
-core, after a warm-up render, so the numbers differ only by the feature removed.
+core, after a warm-up pass of every variant, and keeps the faster of two timed passes, so the
+numbers differ only by the feature removed.
 
     python benchmarks/realism_bench.py --scenes 8 [--recipe tabletop]
 """
@@ -64,15 +65,20 @@ def main() -> None:
         except SceneRejected:
             pass
         k += 1
-    render_views(scenes[0], catalogue.materials)  # warm-up: context and shader set-up
     views = sum(len(s.cameras) for s in scenes)
+    for variant in VARIANTS.values():  # warm-up: llvmpipe compiles a shader per state the first time it meets it
+        for scene in scenes:
+            render_views(variant(scene), catalogue.materials)
     print(f"{args.recipe}: {len(scenes)} scenes, {views} views, {scenes[0].cameras[0].width}x"
           f"{scenes[0].cameras[0].height}, one core")
     for name, variant in VARIANTS.items():
-        start = time.perf_counter()
-        for scene in scenes:
-            render_views(variant(scene), catalogue.materials)
-        print(f"  {name:<30} {1000 * (time.perf_counter() - start) / views:7.1f} ms/view")
+        best = float("inf")
+        for _ in range(2):  # the faster of two passes: the machine's other work only ever adds time
+            start = time.perf_counter()
+            for scene in scenes:
+                render_views(variant(scene), catalogue.materials)
+            best = min(best, time.perf_counter() - start)
+        print(f"  {name:<30} {1000 * best / views:7.1f} ms/view")
 
 
 if __name__ == "__main__":
