@@ -43,7 +43,9 @@ class ImageTally:
         self.void_pixels += void
         self.records_with_void += void > 0
         for o in scene["objects"]:
-            self.object_looks[(o.get("texture") or "untextured").split("/")[0]] += 1
+            key = o.get("texture") or "untextured"
+            # Procedural looks are "<look>/<pattern>/<rgb>"; an imported image is known by its hash alone.
+            self.object_looks[key.split("/")[0] if "/" in key or key == "untextured" else "imported image"] += 1
             procedural = o.get("source", "procedural") == "procedural"  # a library asset's source is its origin
             self.sources["procedural" if procedural else "asset library"] += 1
         room = scene.get("room")

@@ -49,13 +49,19 @@ def build_spec(scene: Scene, materials: dict[str, MaterialSpec], opts: SpecOptio
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     _visual_settings(spec, scene, opts)
     add_room(spec, scene, FRICTION, opts.visual, opts.mesh_dir)
-    for name, m in materials.items():
-        _add_material(spec, f"mat_{name}", m)
-    for obj in scene.objects:
-        _add_object(spec, obj, opts, materials)
+    add_objects(spec, scene.objects, materials, opts)
     for cam in scene.cameras:
         spec.worldbody.add_camera(name=cam.name, pos=cam.pos_world_m, quat=cam.quat_wxyz, fovy=cam.fovy_deg)
     return spec
+
+
+def add_objects(spec: mujoco.MjSpec, objects, materials: dict[str, MaterialSpec], opts: SpecOptions) -> None:
+    """The catalogue's materials and each placed object's body (the contact sheet uses it too,
+    so the sheet shows objects exactly as scenes do)."""
+    for name, m in materials.items():
+        _add_material(spec, f"mat_{name}", m)
+    for obj in objects:
+        _add_object(spec, obj, opts, materials)
 
 
 def _shadow_reach_m(scene: Scene) -> float:

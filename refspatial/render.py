@@ -100,7 +100,7 @@ def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray) -> View:
     mujoco.mjv_updateScene(model, data, option, None, camera, mujoco.mjtCatBit.mjCAT_ALL.value, scn)
     if scn.ngeom >= scn.maxgeom:  # MuJoCo drops what does not fit: objects would vanish silently
         raise RuntimeError(f"the scene has more than {scn.maxgeom} visual geoms; raise SPARE_GEOMS")
-    _room_casts_no_shadow(model, scn)
+    room_casts_no_shadow(model, scn)
     rect = mujoco.MjrRect(0, 0, cam.width, cam.height)
     rgb = np.empty((cam.height, cam.width, 3), dtype=np.uint8)
     mujoco.mjr_render(rect, scn, ctx)
@@ -116,7 +116,7 @@ def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray) -> View:
                 np.flipud(_segmentation(scn, ids, lookup)).copy())
 
 
-def _room_casts_no_shadow(model, scn) -> None:
+def room_casts_no_shadow(model, scn) -> None:
     """Walls, ceiling and background pieces stay out of the shadow map: under a low sun they
     would shade the whole table, and they stand outside the light's view of the objects anyway."""
     import mujoco

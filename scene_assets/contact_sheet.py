@@ -20,7 +20,9 @@ import cv2  # noqa: E402
 import mujoco  # noqa: E402
 
 from refspatial.assets import Catalogue, MaterialSpec, build_asset, load_catalogue  # noqa: E402
-from refspatial.scene import Asset  # noqa: E402
+from refspatial.mjcf import ROOM_GROUP, SpecOptions, add_objects  # noqa: E402
+from refspatial.render import room_casts_no_shadow  # noqa: E402
+from refspatial.scene import Asset, PlacedObject, Pose  # noqa: E402
 
 TILE = (240, 180)  # width, height of one tile in pixels
 AZIMUTH_DEG = 215.0  # camera on the front (+x) side, a little to the left of the front
@@ -28,54 +30,16 @@ ELEVATION_DEG = -28.0
 LABEL_PX = 16
 
 
-BUILTIN = {
-    "gradient": mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-    "checker": mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-    "flat": mujoco.mjtBuiltin.mjBUILTIN_FLAT,
-}
-MARK = {
-    "none": mujoco.mjtMark.mjMARK_NONE,
-    "edge": mujoco.mjtMark.mjMARK_EDGE,
-    "cross": mujoco.mjtMark.mjMARK_CROSS,
-    "random": mujoco.mjtMark.mjMARK_RANDOM,
-}
-
-
-def add_material(spec: mujoco.MjSpec, name: str, material: MaterialSpec) -> None:
-    """A MuJoCo material from the catalogue, with its builtin texture when it has one (the same
-    code is proposed for refspatial/mjcf.py, so scenes look like this sheet)."""
-    mat = spec.add_material(
-        name=name, specular=material.specular, shininess=material.shininess, reflectance=material.reflectance
-    )
-    t = material.texture
-    if t is None:
-        return
-    spec.add_texture(
-        name=f"{name}_tex",
-        type=mujoco.mjtTexture.mjTEXTURE_2D,
-        builtin=BUILTIN[t.builtin],
-        mark=MARK[t.mark],
-        random=t.random,
-        rgb1=list(t.rgb1),
-        rgb2=list(t.rgb2),
-        markrgb=list(t.markrgb),
-        width=t.size_px,
-        height=t.size_px,
-    )
-    mat.texrepeat, mat.texuniform = list(t.repeat), True
-    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = f"{name}_tex"
-
-
-def asset_spec(asset: Asset, material: MaterialSpec) -> mujoco.MjSpec:
-    """A floor, a sun and the asset's visual mesh with its colour and material."""
+def asset_spec(asset: Asset, materials: dict[str, MaterialSpec]) -> mujoco.MjSpec:
+    """A floor, a sun and the asset, added by the generator's own code (textures and all)."""
     spec = mujoco.MjSpec()
     spec.visual.global_.offwidth, spec.visual.global_.offheight = TILE
     spec.visual.quality.shadowsize = 1024
     spec.visual.headlight.ambient = [0.3, 0.3, 0.3]
     spec.visual.headlight.diffuse = [0.3, 0.3, 0.3]
-    add_material(spec, "m", material)
     spec.add_material(name="floor", rgba=[0.80, 0.78, 0.74, 1.0], specular=0.05)
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1], material="floor")
+    # In the room group, like a scene's floor: it casts no shadow, so it shows no acne.
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1], material="floor", group=ROOM_GROUP)
     spec.stat.extent, spec.stat.center = 0.6, [0.0, 0.0, 0.05]  # the shadow map covers the object, not the floor
     spec.worldbody.add_light(
         type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
@@ -84,16 +48,16 @@ def asset_spec(asset: Asset, material: MaterialSpec) -> mujoco.MjSpec:
         diffuse=[0.6, 0.6, 0.6],
         specular=[0.2, 0.2, 0.2],
         castshadow=True,
+        bulbradius=0.02,
     )
-    mesh = asset.visual
-    spec.add_mesh(name="visual", uservert=mesh.vertices_m.ravel().tolist(), userface=mesh.faces.ravel().tolist())
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname="visual", rgba=list(asset.rgba), material="m")
+    add_objects(spec, [PlacedObject(0, asset, Pose((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)))], materials,
+                SpecOptions(dynamic=False))
     return spec
 
 
-def render_tile(asset: Asset, material: MaterialSpec) -> np.ndarray:
+def render_tile(asset: Asset, materials: dict[str, MaterialSpec]) -> np.ndarray:
     """(H, W, 3) uint8 view of one asset, framed so its bounding sphere fills the tile."""
-    model = asset_spec(asset, material).compile()
+    model = asset_spec(asset, materials).compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     lo, hi = asset.visual.bounds_m
@@ -105,6 +69,7 @@ def render_tile(asset: Asset, material: MaterialSpec) -> np.ndarray:
     renderer = mujoco.Renderer(model, height=TILE[1], width=TILE[0])
     try:
         renderer.update_scene(data, camera=camera)
+        room_casts_no_shadow(model, renderer.scene)
         return renderer.render().copy()
     finally:
         renderer.close()
@@ -128,7 +93,7 @@ def sheet(catalogue: Catalogue, categories: list[str], seed: int, columns: int) 
         asset = build_asset(catalogue, key, np.random.default_rng(seed), color=color)
         size_cm = " x ".join(f"{v * 100:.0f}" for v in asset.size_m)
         group = catalogue.categories[key].group
-        tiles.append(label(render_tile(asset, catalogue.materials[asset.material]), [key, f"{group}", f"{size_cm} cm"]))
+        tiles.append(label(render_tile(asset, catalogue.materials), [key, f"{group}", f"{size_cm} cm"]))
     rows = math.ceil(len(tiles) / columns)
     blank = np.full_like(tiles[0], 255)
     tiles += [blank] * (rows * columns - len(tiles))

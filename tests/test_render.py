@@ -88,7 +88,7 @@ def test_matches_mujocos_own_renderer(rendered, catalogue):
     geoms kept out of the shadow map in both, as render.py does)."""
     import mujoco
 
-    from refspatial.render import _room_casts_no_shadow
+    from refspatial.render import room_casts_no_shadow
 
     from refspatial.mjcf import COLLISION_GROUP, SpecOptions, build_spec, object_of_geom
 
@@ -102,7 +102,7 @@ def test_matches_mujocos_own_renderer(rendered, catalogue):
     lookup = object_of_geom(model, len(scene.objects))
     with mujoco.Renderer(model, cam.height, cam.width) as r:
         r.update_scene(data, camera=cam.name, scene_option=option)
-        _room_casts_no_shadow(model, r.scene)
+        room_casts_no_shadow(model, r.scene)
         rgb = r.render()
         r.enable_depth_rendering()
         r.update_scene(data, camera=cam.name, scene_option=option)
