@@ -18,7 +18,6 @@ import io
 import json
 import os
 import re
-import shutil
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -34,6 +33,7 @@ from .library import DEFAULT_MATERIAL, FORMAT, INDEX, VERSION, LibraryError, con
 from .mesh_import import (TRIMESH_SUFFIXES, USD_SUFFIXES, MeshImportError, annotation_from_dict,
                           annotation_path_for, default_cache_dir, import_annotated)
 from .mesh_texture import texture_from_rgb
+from .staging import staged_folder
 
 TABLES = ("annotations.csv", "annotations.jsonl")
 COLUMNS = ("file", "category", "name", "plural", "color", "up", "front", "front_side", "scale", "size_m",
@@ -264,12 +264,8 @@ def import_library(src: Path, out: Path, workers: int = 1, cache_dir: Path | Non
     items, skipped = find_items(src)
     total = len(items) + len(skipped)
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir().parent
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
-    except OSError as exc:
-        raise LibraryError(f"--out {out}: cannot write there ({exc.strerror}); choose another folder") from None
-    try:
+    cannot = lambda why: LibraryError(f"--out {out}: cannot write there ({why}); choose another folder")  # noqa: E731
+    with staged_folder(out, cannot) as staging:
         jobs = [(item, staging, cache) for item in items]
         if workers > 1 and len(jobs) > 1:
             with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
@@ -293,17 +289,4 @@ def import_library(src: Path, out: Path, workers: int = 1, cache_dir: Path | Non
         sha = library_sha256(entries)
         index = {"format": FORMAT, "version": VERSION, "sha256": sha, "assets": entries}
         (staging / INDEX).write_text(json.dumps(index, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-        _swap_in(staging, out)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
     return ImportSummary(out, sha, len(entries), skipped, hits)
-
-
-def _swap_in(staging: Path, out: Path) -> None:
-    """Put the finished library at `out`, replacing an older one only once this one is complete."""
-    old = out.with_name(f".{out.name}.old")
-    shutil.rmtree(old, ignore_errors=True)
-    if out.exists():
-        out.rename(old)
-    staging.rename(out)
-    shutil.rmtree(old, ignore_errors=True)

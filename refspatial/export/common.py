@@ -10,10 +10,7 @@ from __future__ import annotations
 
 import itertools
 import json
-import os
 import re
-import shutil
-import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator, Sequence
@@ -23,6 +20,7 @@ import numpy as np
 
 from refspatial import __version__
 from refspatial.data import MANIFEST, RefSpatialDataset
+from refspatial.staging import staged_folder
 
 from .base import ExportError, ExportSummary
 
@@ -86,29 +84,9 @@ def staged(out_dir: Path, overwrite: bool) -> Iterator[Path]:
     if out_dir.is_dir() and any(out_dir.iterdir()) and not overwrite:
         raise ExportError(f"OUT {out_dir} exists and is not empty; pass --overwrite to replace it "
                           "or choose another OUT")
-    try:
-        out_dir.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".partial", dir=out_dir.parent))
-    except OSError as e:
-        raise ExportError(f"cannot write next to OUT {out_dir} ({e.strerror}); choose another OUT") from None
-    try:
+    cannot = lambda why: ExportError(f"cannot write next to OUT {out_dir} ({why}); choose another OUT")  # noqa: E731
+    with staged_folder(out_dir, cannot) as tmp:
         yield tmp
-        _replace(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-
-
-def _replace(tmp: Path, out_dir: Path) -> None:
-    """Swap the finished export in; an old OUT is removed only after the new one is in place."""
-    os.chmod(tmp, 0o755)  # mkdtemp makes 0700 folders
-    old = None
-    if out_dir.exists():
-        old = out_dir.with_name(f".{out_dir.name}.old-{os.getpid()}")
-        out_dir.rename(old)
-    tmp.rename(out_dir)
-    if old is not None:
-        shutil.rmtree(old)
 
 
 def finish(fmt: str, staging: Path, out_dir: Path, dataset_dir: Path, records: int,
