@@ -25,7 +25,7 @@ from .seeding import stable_int
 
 PATTERN_SEEDS = 2  # distinct patterns per (look, colour): variety enough, and the per-process image cache mostly hits
 DEFAULT_TILE_M = 0.12  # box projection repeat for finishes without a category entry
-SURFACE_KINDS = ("floor", "wall", "top", "furniture")
+SURFACE_KINDS = ("floor", "wall", "top", "furniture", "outdoors")
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 MAX_IMAGE_PX = 1024  # a user's photo is scaled down to this: texels beyond it only cost upload time
 
@@ -201,6 +201,21 @@ def user_image(path: Path) -> np.ndarray:
     rgb = np.ascontiguousarray(bgr[..., ::-1])
     rgb.flags.writeable = False
     return rgb
+
+
+def outdoor_view(path: Path, facing_rad: float, size: tuple[int, int]) -> Texture:
+    """What a window facing ``facing_rad`` (world yaw of its outward direction) shows of a user's
+    equirectangular image: 70 degrees of azimuth around that direction, from 15 degrees below the
+    horizon to 30 above (the image's columns run once around, its rows from +90 to -90 degrees)."""
+    pano = user_image(path)
+    ph, pw, _ = pano.shape
+    h, w = size
+    az = facing_rad + np.radians(np.linspace(35, -35, w))  # left to right as seen from inside
+    el = np.radians(np.linspace(30, -15, h))
+    cols = ((0.5 - az / (2 * np.pi)) % 1.0 * pw).astype(int) % pw
+    rows = np.clip(((0.5 - el / np.pi) * ph).astype(int), 0, ph - 1)
+    view = np.ascontiguousarray(pano[rows[:, None], cols[None, :]])
+    return Texture(f"image:{_digest(path)}:{np.degrees(facing_rad):.1f}", view)
 
 
 @functools.lru_cache(maxsize=64)

@@ -81,7 +81,10 @@ def add_room(spec: mujoco.MjSpec, scene: Scene, friction: tuple[float, float, fl
     if t.surface == "table":
         _table(spec, scene, top, friction)
     for k, prop in enumerate(room.props):
-        _PROPS[prop.kind](spec, f"prop{k}", prop, room, wood)
+        if prop.kind == "window":  # the only prop with a texture of its own (an MJCF export writes it)
+            _window(spec, f"prop{k}", prop, room, wood, folder)
+        else:
+            _PROPS[prop.kind](spec, f"prop{k}", prop, room, wood)
     add_lights(spec, scene)
 
 
@@ -151,10 +154,18 @@ def _block(spec, prop: Prop, x: float, y: float, z: float, size, material: str |
     _geom(spec, type=BOX, size=list(size), pos=pos.tolist(), quat=quat, **kw)
 
 
-def _window(spec, name: str, prop: Prop, room: Room, wood: str) -> None:
+def _window(spec, name: str, prop: Prop, room: Room, wood: str, folder: Path | None = None) -> None:
+    """A framed window; its pane shows the world outside (room.outdoors), lit by daylight."""
     _, w, h = prop.size_m
     sill = prop.pos_world_m[2]
-    pane = spec.add_material(name=f"{name}_pane", rgba=[0.78, 0.86, 0.95, 1.0], emission=WINDOW_GLOW, specular=0.6)
+    pane = spec.add_material(name=f"{name}_pane", emission=WINDOW_GLOW, specular=0.6)
+    if room.outdoors is not None:
+        # A box face maps a texture's first row to its top: the image goes in as it is, while
+        # add_texture turns images for meshes' v-up coordinates; so hand it the image upside down.
+        upright = Texture(room.outdoors.texture.key, np.ascontiguousarray(np.flipud(room.outdoors.texture.rgb)))
+        pane.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = add_texture(spec, f"{name}_view", upright, folder)
+    else:
+        pane.rgba = [0.78, 0.86, 0.95, 1.0]
     _block(spec, prop, 0.006, 0, sill + h / 2, (0.006, w / 2, h / 2), pane.name)
     bar = 0.035
     frame = [0.92, 0.92, 0.9, 1]

@@ -110,7 +110,8 @@ def light_dict(light: Light) -> dict:
 def room_dict(room: Room) -> dict:
     """What surrounds the scene: sizes, each surface's look and mean colour, background pieces."""
     surfaces = {k: {"look": s.look, "texture": s.texture.key, "rgb": rounded(s.rgb, 4)}
-                for k, s in (("floor", room.floor), ("wall", room.wall), ("top", room.top), ("furniture", room.furniture))}
+                for k, s in (("floor", room.floor), ("wall", room.wall), ("top", room.top), ("furniture", room.furniture),
+                             ("outdoors", room.outdoors)) if s is not None}
     props = [{"kind": p.kind, "pos_world_m": rounded(p.pos_world_m), "yaw_rad": round(p.yaw_rad, 6),
               "size_m": rounded(p.size_m)} for p in room.props]
     return {"size_m": rounded(room.size_m), "height_m": round(room.height_m, 6), "surfaces": surfaces, "props": props}

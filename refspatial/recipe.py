@@ -117,7 +117,7 @@ def _levels(v: Any) -> str | None:
 
 
 def _folder(v: Any) -> str | None:
-    return None if v is None or (isinstance(v, str) and v.strip()) else "expected a folder path or null"
+    return None if v is None or (isinstance(v, str) and v.strip()) else "expected a path or null"
 
 
 def _paths(v: Any) -> str | None:
@@ -218,6 +218,7 @@ OPTIONAL: dict[str, dict[str, tuple[Callable[[Any], str | None], Any]]] = {
         "height_m": (_range(2.0, 6.0), [2.6, 3.0]),
         "props": (_range(0, 8, integer=True), [1, 3]),  # background furniture along the walls
         "images": (_folder, None),  # a folder of .png/.jpg images that floors, walls and tops may use
+        "sky": (_folder, None),  # an equirectangular .png/.jpg: the world outside, seen through the window
     },
     "furniture": {  # pieces standing on the surface before the objects come (catalogue group "furniture")
         "count": (_range(0, 20, integer=True), [0, 0]),
@@ -259,6 +260,7 @@ def load_recipe(name_or_path: str) -> Recipe:
     text = path.read_text(encoding="utf-8")
     data = _resolve(path, seen=())
     _validate(path, data)
+    _locate_files(path, data)
     return Recipe(name=data["name"], path=path, data=data, text=text, hash=recipe_hash(data))
 
 
@@ -296,6 +298,22 @@ def _resolve(path: Path, seen: tuple[Path, ...]) -> dict[str, Any]:
         else:
             merged[key] = value
     return merged
+
+
+def _locate_files(path: Path, data: dict[str, Any]) -> None:
+    """Make the room's image paths absolute (relative ones are read from the recipe's folder) and
+    check they exist, so a wrong path fails here in one line rather than in every scene."""
+    room = data.get("room", {})
+    for key, want_dir in (("images", True), ("sky", False)):
+        if room.get(key) is None:
+            continue
+        target = Path(room[key]).expanduser()
+        target = target if target.is_absolute() else (path.parent / target).resolve()
+        if want_dir and not target.is_dir():
+            raise RecipeError(f"{path}: room.images: {target} is not a folder; point it at a folder of .png/.jpg images")
+        if not want_dir and not target.is_file():
+            raise RecipeError(f"{path}: room.sky: {target} is not a file; point it at an equirectangular .png or .jpg")
+        room[key] = str(target)
 
 
 def _validate(path: Path, data: dict[str, Any]) -> None:

@@ -35,7 +35,8 @@ WINDOW_M = ((1.0, 1.6), (1.0, 1.4), (0.8, 1.0))  # width, height, sill height
 DOOR_M = ((0.8, 0.95), (2.0, 2.1))  # width, height
 STAND_OUT_DELTA_E = 15.0  # an object's colour against the surface under it: clearly apart
 SUPPORT_REDRAWS = 8  # looks tried for that surface before keeping the last (rare: ~7 objects, 7 looks)
-SURFACE_TILE_M = {"floor": 1.2, "wall": 1.5, "top": 0.8, "furniture": 0.6}
+SURFACE_TILE_M = {"floor": 1.2, "wall": 1.5, "top": 0.8, "furniture": 0.6, "outdoors": 1.0}
+OUTDOOR_VIEW_PX = (128, 256)  # the window's view when cut from a user's panorama
 
 
 def camera_clearance_m(room: Room | None, table: Table) -> float:
@@ -71,12 +72,31 @@ def sample_room(recipe: Recipe, table: Table, rng: np.random.Generator,
     props = _openings(size, rng)
     if table.surface != "floor":
         props += _furniture(size, recipe.option("room", "props"), rng)
-    return Room(size, height, surfaces["floor"], surfaces["wall"], surfaces["top"], surfaces["furniture"], tuple(props))
+    outdoors = surfaces["outdoors"]
+    sky = _sky(recipe)
+    if sky is not None:  # the user's panorama, as seen through this room's window
+        window = next(p for p in props if p.kind == "window")
+        view = looks_mod.outdoor_view(sky, window.yaw_rad + math.pi, OUTDOOR_VIEW_PX)
+        outdoors = Surface(f"image:{sky.name}", tuple(float(c) for c in view.rgb.reshape(-1, 3).mean(0) / 255), view,
+                           SURFACE_TILE_M["outdoors"])
+    return Room(size, height, surfaces["floor"], surfaces["wall"], surfaces["top"], surfaces["furniture"], tuple(props),
+                outdoors)
 
 
 def _sets_off(surface_rgb: tuple[float, float, float], object_rgbs) -> bool:
     under = srgb_to_lab(np.array(surface_rgb))
     return all(delta_e(under, srgb_to_lab(np.array(rgb))) >= STAND_OUT_DELTA_E for rgb in object_rgbs)
+
+
+def _sky(recipe: Recipe) -> Path | None:
+    """The recipe's equirectangular image for the view out of the window (relative to the recipe)."""
+    name = recipe.option("room", "sky")
+    if name is None:
+        return None
+    path = Path(name) if Path(name).is_absolute() else recipe.path.parent / name
+    if not path.is_file():
+        raise looks_mod.LooksError(f"room.sky: {path} is not a file; point it at an equirectangular .png or .jpg")
+    return path
 
 
 def _images(recipe: Recipe) -> tuple[Path, ...]:

@@ -191,6 +191,7 @@ class Room:
     top: Surface  # the table top and shelf boards (a floor scene's floor is `floor`)
     furniture: Surface  # background furniture and the door
     props: tuple[Prop, ...] = ()
+    outdoors: Surface | None = None  # what the window shows: a generated view or a user's panorama
 
 
 @dataclass(frozen=True, eq=False)

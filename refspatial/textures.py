@@ -333,6 +333,22 @@ def _screen(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int,
     return np.concatenate([body, face], axis=1)
 
 
+@generator("outdoors")
+def _outdoors(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, int]) -> Image:
+    """The view out of a window: sky (``rgb`` at the top, paler at the horizon) with clouds, over
+    a skyline of hills or trees (``ground_rgb``) whose height wanders with low noise."""
+    h, w = size
+    u, v = _grid(size)  # v = 0 is the top row
+    horizon = p["horizon"]
+    pale = np.clip(rgb * 0.55 + 0.45, 0, 1)
+    sky = mix(np.broadcast_to(rgb, (h, w, 3)).astype(np.float32), pale, np.clip(v / horizon, 0, 1) ** 1.5)
+    clouds = np.clip((noise(rng, size, (3, 6), 4) - (1 - p["clouds"])) * 4, 0, 1)
+    sky = mix(sky, np.array([0.97, 0.97, 0.98], np.float32), clouds * (v < horizon))
+    ridge = horizon - p["hills"] * noise(rng, (1, w), (1, 6), 3)[0]  # skyline height per column
+    ground = shade(np.asarray(p["ground_rgb"], np.float32), 1.0 + 0.3 * (noise(rng, size, (8, 16), 3) - 0.5))
+    return np.where((v > ridge[None, :])[..., None], ground, sky).astype(np.float32)
+
+
 # ---------------------------------------------------------------- colour temperature
 
 

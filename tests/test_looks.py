@@ -129,3 +129,18 @@ def test_a_look_with_a_wrong_parameter_fails_at_load(tmp_path: Path) -> None:
     bad.write_text(text)
     with pytest.raises(looks.LooksError, match="grain_fine.*cannot use these parameters"):
         looks.load_looks(bad)
+
+
+def test_a_window_shows_the_part_of_a_panorama_it_faces(tmp_path: Path) -> None:
+    """An equirectangular image's centre column is world +x, azimuth turning left (counter-
+    clockwise) towards the image's left edge: a window facing +y shows what lies 90 degrees left."""
+    import cv2
+
+    pano = np.full((90, 360, 3), 40, np.uint8)
+    pano[30:60, 85:95] = (0, 0, 255)  # BGR red: a mark 90 degrees left of the centre (+y)
+    cv2.imwrite(str(tmp_path / "pano.png"), pano)
+    facing_y = looks.outdoor_view(tmp_path / "pano.png", np.pi / 2, (45, 70))
+    facing_x = looks.outdoor_view(tmp_path / "pano.png", 0.0, (45, 70))
+    red = (facing_y.rgb[..., 0] > 200) & (facing_y.rgb[..., 2] < 50)
+    assert red.any() and abs(np.nonzero(red)[1].mean() - 35) < 4, "the mark sits mid-window"
+    assert not ((facing_x.rgb[..., 0] > 200) & (facing_x.rgb[..., 2] < 50)).any()

@@ -164,3 +164,32 @@ def test_the_surface_under_the_objects_sets_them_off() -> None:
         assert delta_e(srgb_to_lab(np.array(dressed.top.rgb)), srgb_to_lab(np.array(clash))) >= STAND_OUT_DELTA_E
         assert dressed.wall.look == plain.wall.look  # only the top is drawn again
     assert tried == 12
+
+
+def test_a_recipe_can_dress_the_room_with_its_own_images(tmp_path, catalogue) -> None:
+    """`room.images` (a folder) and `room.sky` (a panorama), relative to the recipe file."""
+    import cv2
+
+    (tmp_path / "textures").mkdir()
+    cv2.imwrite(str(tmp_path / "textures" / "slate.png"), np.full((64, 64, 3), (90, 80, 70), np.uint8))
+    pano = np.zeros((64, 128, 3), np.uint8)
+    pano[:32] = (230, 160, 90)  # BGR: sky over ground
+    cv2.imwrite(str(tmp_path / "pano.jpg"), pano)
+    recipe_file = tmp_path / "mine.yaml"
+    recipe_file.write_text("extends: tabletop\nname: mine\nroom:\n  images: textures\n  sky: pano.jpg\n")
+    recipe = load_recipe(str(recipe_file))
+    looks_used = set()
+    for seed in range(1, 30):
+        try:
+            scene = build_scene(recipe, catalogue, seed)
+        except SceneRejected:
+            continue
+        assert scene.room.outdoors.look == "image:pano.jpg"
+        looks_used |= {scene.room.floor.look, scene.room.wall.look, scene.room.top.look}
+        if "image:slate.png" in looks_used:
+            break
+    assert "image:slate.png" in looks_used
+    assert render_views(scene, catalogue.materials)[0].rgb.any()
+    recipe_file.write_text("extends: tabletop\nname: mine\nroom:\n  sky: missing.jpg\n")
+    with pytest.raises(ValueError, match="room.sky: .*missing.jpg is not a file"):
+        load_recipe(str(recipe_file))  # at load, in one line: not once per scene
