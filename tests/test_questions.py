@@ -169,9 +169,11 @@ def test_count_measure_and_mark_operations():
     program = []
     a = compile_ref(Ref(2, "mug", "mug", "blue"), program)
     b = compile_ref(Ref(4, "plate", "plate"), program)
-    program.append({"op": "measure", "inputs": [a, b], "quantity": "distance_between"})
+    program.append({"op": "measure", "inputs": [a, b], "quantity": "centre_distance"})
     d = np.linalg.norm(MUGS.objects[2].center_world_m - MUGS.objects[4].center_world_m)
     assert execute(program, MUGS)[-1] == pytest.approx(d, abs=1e-4)
+    program[-1] = {"op": "measure", "inputs": [a, b], "quantity": "distance_between"}  # the gap: less than centres
+    assert execute(program, MUGS)[-1] == pytest.approx(MUGS.footprint_gap(MUGS.objects[2], MUGS.objects[4]), abs=1e-4)
     program[-1] = {"op": "mark", "inputs": [a], "marks": [{"label": "A", "object_id": 4}, {"label": "B", "object_id": 2}]}
     assert execute(program, MUGS)[-1] == "B"
 

@@ -6,10 +6,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from refspatial.relations import PREDICATES, TABLE, ObjectFacts, computed_relations
-from refspatial.relations.directional import MIN_MARGIN_M
 from refspatial.scene import Cavity
 
-from helpers import obj, view
+from helpers import T, obj, view
+
+from refspatial.relations.metric import centre_distance
 
 coord = st.floats(-0.5, 0.5, allow_nan=False)
 COMPARATIVES = {"left_of", "right_of", "in_front_of", "behind", "higher_in_image", "lower_in_image",
@@ -64,7 +65,9 @@ def test_translating_scene_and_camera_together_changes_nothing(x1, y1, x2, y2, d
     shifted = [type(o)(**{**o.__dict__, "depth_m": p.depth_m, "centroid_px": p.centroid_px, "support": None})
                for o, p in zip(shifted, v1.objects)]
     v1 = view(*(type(o)(**{**o.__dict__, "support": None}) for o in v1.objects))
-    assert computed_relations(v1) == computed_relations(view(*shifted))
+    moved = T.copy()
+    moved[:3, 3] += (dx, dy, 0.0)  # the camera's pose moves too (closer_to_camera reads the centres' depth)
+    assert computed_relations(v1) == computed_relations(view(*shifted, T_world_cam=moved))
 
 
 def test_transitivity_of_left_of_and_taller_than():
@@ -81,7 +84,7 @@ def test_near_ties_are_undecided():
     for name in ("left_of", "right_of", "in_front_of", "behind", "closer_to_camera", "taller_than", "bigger_than",
                  "wider_than", "higher_in_image"):
         assert PREDICATES[name](v, a, b) is None, name
-    far = obj(1, "cup", "red", MIN_MARGIN_M * 3, 0.0)
+    far = obj(1, "cup", "red", 0.3, 0.0)
     assert PREDICATES["left_of"](view(a, far), a, far) is True
 
 
@@ -143,8 +146,11 @@ def test_plan_view_relations_respect_shelf_levels():
 def test_known_measures():
     P = PREDICATES
     d = P["distance_between"](SCENE, MUG, CUP)
-    assert d.unit == "m" and d.value == pytest.approx(np.linalg.norm(CUP.center_world_m - MUG.center_world_m))
-    assert d.value == pytest.approx(0.6, abs=0.01)
+    # The gap a person measures, not centre to centre: 0.6 m between centres less the half
+    # widths of the 8 cm mug and the 7 cm cup.
+    assert d.unit == "m" and d.value == pytest.approx(0.6 - 0.04 - 0.035, abs=1e-6)
+    assert centre_distance(SCENE, MUG, CUP).value == pytest.approx(np.linalg.norm(CUP.center_world_m - MUG.center_world_m))
+    assert P["distance_between"](SCENE, PLATE, APPLE).value == 0.0  # the apple rests on the plate
     ang = P["angle_between"](SCENE, MUG, CUP)
     assert ang.unit == "deg" and 20 < ang.value < 50
     assert P["angle_between"](SCENE, CUP, MUG).value == pytest.approx(ang.value)

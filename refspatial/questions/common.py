@@ -197,6 +197,10 @@ def point_qa(family: str, template: str, text: str, program: list[Node], values:
                    points=points, target=values[-1], **extra)
 
 
+# Measures that ask a registered predicate in other words: centre to centre is still a distance.
+MEASURED_PREDICATE = {"centre_distance": "distance_between"}
+
+
 def make_qa(family: str, kind: str, prompt: str, answer: str, program: list[Node], values: list,
             views: dict[str, ViewFacts], rng, points: list[list[float]] | None = None,
             target: int | None = None, ref: str | None = None, **extra: Any) -> QA | None:
@@ -218,7 +222,8 @@ def make_qa(family: str, kind: str, prompt: str, answer: str, program: list[Node
         "steps": with_results(program, values),
         "num_steps": count_steps(program),
         "predicates": sorted({n["predicate"] for n in program if "predicate" in n}
-                             | {n["quantity"] for n in program if n["op"] == "measure" and n["quantity"] in PREDICATES}
+                             | {MEASURED_PREDICATE.get(n["quantity"], n["quantity"]) for n in program
+                                if n["op"] == "measure" and MEASURED_PREDICATE.get(n["quantity"], n["quantity"]) in PREDICATES}
                              | ({"free_space"} if any(n["op"] == "free_space" for n in program) else set())),
         "reasoning_steps": steps,
         "reasoning": f"<think>{trace_text(steps)}</think><answer>{answer}</answer>" if points else None,

@@ -17,7 +17,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ..relations import PREDICATES, Quantity, ViewFacts
-from ..relations.directional import DEPTH_MARGIN_M, MIN_MARGIN_M
+from ..relations.directional import DEPTH_MARGIN_M
+from ..relations.metric import centre_distance
 from ..relations.free_space import Constraint, solve
 
 Node = dict[str, Any]
@@ -81,10 +82,11 @@ def _relate(view: ViewFacts, node: Node, ids: list[int], *anchors: int) -> list[
     return kept
 
 
+ORDINAL_MARGIN_M = 0.03  # centres closer than this along an axis are a near-tie for ranking ("second from the left")
 ORDINAL_AXES = {
     # axis -> (coordinate of an object, end whose rank 1 has the smallest coordinate, margin)
-    "left_right": (lambda o: o.lateral_m, "left", MIN_MARGIN_M),
-    "front_back": (lambda o: o.forward_m, "front", MIN_MARGIN_M),
+    "left_right": (lambda o: o.lateral_m, "left", ORDINAL_MARGIN_M),
+    "front_back": (lambda o: o.forward_m, "front", ORDINAL_MARGIN_M),
     "depth": (lambda o: o.depth_m, "near", DEPTH_MARGIN_M),
 }
 
@@ -139,8 +141,17 @@ def _count(view: ViewFacts, node: Node, ids: list[int]) -> int:
     return len(ids)
 
 
+def _camera_distance(v: ViewFacts, o) -> Quantity | None:
+    """Straight-line distance from the camera to the object's centre, metres ("how far from the camera")."""
+    centre = v.centre_in_camera(o)
+    return None if centre is None or o.status == "hidden" else Quantity(float(np.linalg.norm(centre)), "m")
+
+
 QUANTITIES: dict[str, Callable[..., Quantity | None]] = {
+    # Depth along the viewing direction (the optical axis) of the visible surface, median over its mask.
     "depth": lambda v, o: Quantity(o.depth_m, "m") if np.isfinite(o.depth_m) else None,
+    "camera_distance": _camera_distance,
+    "centre_distance": lambda v, a, b: centre_distance(v, a, b),
     "height": lambda v, o: Quantity(o.height_m, "m"),
     "width": lambda v, o: Quantity(o.extent_along(v.right_axis), "m"),
 }

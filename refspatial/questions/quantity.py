@@ -9,8 +9,8 @@ from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
 from .program import Node, ProgramError, execute
 
-ONE_OBJECT = ("depth", "height", "width", "rotate_horizontal", "rotate_vertical")
-TWO_OBJECTS = ("distance_between", "angle_between")
+ONE_OBJECT = ("depth", "camera_distance", "height", "width", "rotate_horizontal", "rotate_vertical")
+TWO_OBJECTS = ("distance_between", "centre_distance", "angle_between")
 KINDS = ONE_OBJECT + TWO_OBJECTS + ("count",)
 
 
@@ -37,13 +37,17 @@ def quantity(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random
 
 
 def _words(kind: str, value: float) -> str:
+    """The answer with its unit and, in words, its rounding: a model should learn what precision
+    the number claims."""
     if kind == "rotate_horizontal":
-        return f"{abs(value):.0f} degrees to the {'right' if value > 0 else 'left'}"
+        return f"{abs(value):.0f} degrees to the {'right' if value > 0 else 'left'} (to the nearest degree)"
     if kind == "rotate_vertical":
-        return f"{abs(value):.0f} degrees {'up' if value > 0 else 'down'}"
+        return f"{abs(value):.0f} degrees {'up' if value > 0 else 'down'} (to the nearest degree)"
     if kind == "angle_between":
-        return f"{value:.0f} degrees"
-    return f"{value:.2f} m" if value >= 1.0 else f"{value * 100:.0f} cm"
+        return f"{value:.0f} degrees (to the nearest degree)"
+    if value >= 1.0:
+        return f"{value:.2f} m (to the nearest centimetre)"
+    return f"{value * 100:.0f} cm (to the nearest centimetre)"
 
 
 def _count(views, rng) -> QA | None:

@@ -1,7 +1,10 @@
 """Viewer-frame and camera-depth predicates: left/right, front/behind, between, closer.
 
-Margins grow with object size: two large objects whose centres differ by 3 cm
-overlap so much in the view that "left of" is no longer a fair thing to ask.
+Each comparative holds only where every reasonable reading agrees. "A is left of B" is true
+only when the whole of A lies left of the whole of B along the viewer's right axis, and false
+only when the whole of A lies right of B; overlapping extents, and one thing resting on or in
+the other ("the cabinet left of the duck on it"), are undecided and never asked. "Closer to
+the camera" needs the visible surfaces and the centres to agree.
 """
 
 from __future__ import annotations
@@ -11,8 +14,7 @@ import numpy as np
 from .facts import ObjectFacts, ViewFacts
 from .registry import Verdict, compare, predicate
 
-MIN_MARGIN_M = 0.03  # centres closer than this along an axis are a near-tie
-SIZE_MARGIN = 0.25  # ...and so are centres closer than this share of the pair's mean extent
+CLEAR_GAP_M = 0.01  # extents along an axis must be at least this far apart: boxes are bounds, not shapes
 DEPTH_MARGIN_M = 0.03
 DEPTH_MARGIN_REL = 0.05  # share of the nearer object's depth
 BETWEEN_MIN_GAP_M = 0.10  # anchors closer than this enclose no corridor worth naming
@@ -20,8 +22,17 @@ BETWEEN_T = (0.2, 0.8)  # where along the anchor segment the subject must sit (f
 BETWEEN_OUTSIDE_M = 0.05  # clearly outside the corridor beyond this lateral slack
 
 
-def axis_margin(a: ObjectFacts, b: ObjectFacts, axis: np.ndarray) -> float:
-    return max(MIN_MARGIN_M, SIZE_MARGIN * (a.extent_along(axis) + b.extent_along(axis)) / 2)
+def clear_order(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, axis: np.ndarray, ca: float, cb: float) -> Verdict:
+    """True when A's whole extent along ``axis`` lies below B's (by CLEAR_GAP_M), False when it
+    lies above; undecided when the extents overlap or one rests on or in the other."""
+    if v.stacked(a, b):
+        return None
+    (a_lo, a_hi), (b_lo, b_hi) = a.interval_along(axis, ca), b.interval_along(axis, cb)
+    if b_lo - a_hi >= CLEAR_GAP_M:
+        return True
+    if a_lo - b_hi >= CLEAR_GAP_M:
+        return False
+    return None
 
 
 def depth_margin(a: ObjectFacts, b: ObjectFacts) -> float:
@@ -30,44 +41,48 @@ def depth_margin(a: ObjectFacts, b: ObjectFacts) -> float:
 
 @predicate("left_of", family="left_right", arity=2, frame="viewer", inverse="right_of")
 def left_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's centre lies left of B's along the viewer's right axis (ground-projected camera x).
-
-    Margin: max(3 cm, 25 % of the pair's mean extent along that axis).
-    """
-    return compare(b.lateral_m - a.lateral_m, axis_margin(a, b, v.right_axis))
+    """The whole of A lies left of the whole of B along the viewer's right axis (ground-projected
+    camera x): their extents on that axis are at least 1 cm apart, and neither rests on or in
+    the other. False when the whole of A lies right of B; undecided otherwise."""
+    return clear_order(v, a, b, v.right_axis, a.lateral_m, b.lateral_m)
 
 
 @predicate("right_of", family="left_right", arity=2, frame="viewer", inverse="left_of")
 def right_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's centre lies right of B's along the viewer's right axis; margin as left_of."""
-    return compare(a.lateral_m - b.lateral_m, axis_margin(a, b, v.right_axis))
+    """The whole of A lies right of the whole of B along the viewer's right axis; as left_of."""
+    return clear_order(v, b, a, v.right_axis, b.lateral_m, a.lateral_m)
 
 
 @predicate("in_front_of", family="front_behind", arity=2, frame="viewer", inverse="behind")
 def in_front_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's centre is nearer the viewer than B's along the ground-projected forward axis.
-
-    Margin: max(3 cm, 25 % of the pair's mean extent along that axis).
-    """
-    return compare(b.forward_m - a.forward_m, axis_margin(a, b, v.forward_axis))
+    """The whole of A lies nearer the viewer than the whole of B along the ground-projected
+    forward axis (extents at least 1 cm apart, neither resting on or in the other). False when
+    the whole of A lies beyond B; undecided otherwise."""
+    return clear_order(v, a, b, v.forward_axis, a.forward_m, b.forward_m)
 
 
 @predicate("behind", family="front_behind", arity=2, frame="viewer", inverse="in_front_of")
 def behind(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's centre is farther from the viewer than B's along the forward axis; margin as in_front_of."""
-    return compare(a.forward_m - b.forward_m, axis_margin(a, b, v.forward_axis))
+    """The whole of A lies beyond the whole of B along the forward axis; as in_front_of."""
+    return clear_order(v, b, a, v.forward_axis, b.forward_m, a.forward_m)
 
 
 @predicate("closer_to_camera", family="depth", arity=2, frame="camera")
 def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's visible surface is nearer the camera than B's (median depth over the visible mask).
-
-    Margin: max(3 cm, 5 % of the nearer depth). Its converse, "farther from the
-    camera than", is this predicate with the objects swapped.
+    """A is nearer the camera than B by both readings a person might take: its visible surface
+    (median depth over the visible mask) and its centre (the box centre's depth) are each
+    nearer by max(3 cm, 5 % of the nearer depth). A pencil lying towards the camera, whose
+    visible surface is near but whose centre is far, is undecided against a hammer between.
+    Its converse, "farther from the camera than", is this predicate with the objects swapped.
     """
     if not (np.isfinite(a.depth_m) and np.isfinite(b.depth_m)):
         return None
-    return compare(b.depth_m - a.depth_m, depth_margin(a, b))
+    surface = compare(b.depth_m - a.depth_m, depth_margin(a, b))
+    ca, cb = v.centre_in_camera(a), v.centre_in_camera(b)
+    if ca is None or cb is None:
+        return surface
+    centre = compare(float(cb[2] - ca[2]), max(DEPTH_MARGIN_M, DEPTH_MARGIN_REL * min(ca[2], cb[2])))
+    return surface if surface == centre else None
 
 
 @predicate("between", family="between", arity=3, frame="world")

@@ -71,6 +71,20 @@ class ObjectFacts:
     def height_m(self) -> float:
         return float(self.aabb_world_m[1, 2] - self.aabb_world_m[0, 2])
 
+    @property
+    def box_volume_m3(self) -> float:
+        """Volume of the object's oriented box (footprint sides x height): what "big" looks like
+        to a person, who does not subtract a bowl's hollow."""
+        if self.footprint_world is None:
+            return float(np.prod(self.footprint_m) * self.height_m)
+        c = self.footprint_world
+        return float(np.linalg.norm(c[1] - c[0]) * np.linalg.norm(c[2] - c[1]) * self.height_m)
+
+    def interval_along(self, axis_world: np.ndarray, centre: float) -> tuple[float, float]:
+        """The object's extent along a horizontal axis as (low, high), around its centre coordinate."""
+        half = self.extent_along(axis_world) / 2
+        return centre - half, centre + half
+
     def extent_along(self, axis_world: np.ndarray) -> float:
         """Width of the object projected on a horizontal unit axis (memoised: the predicates ask
         it of the same few axes, the view's own and the free-space directions, ~10^4 times)."""
@@ -121,6 +135,21 @@ class ViewFacts:
         key = ("gap", *sorted((a.object_id, b.object_id)))
         if key not in self.cache:
             self.cache[key] = gap_between(a.footprint_world, b.footprint_world)
+        return self.cache[key]
+
+    def stacked(self, a: ObjectFacts, b: ObjectFacts) -> bool:
+        """One rests on or in the other (a cup on a plate, an apple in a bowl): beside each other
+        they are not, whatever their centres say."""
+        return a.support == b.object_id or b.support == a.object_id
+
+    def centre_in_camera(self, o: ObjectFacts) -> np.ndarray | None:
+        """The object's box centre in the OpenCV camera frame (x right, y down, z forward), metres."""
+        if self.T_world_cam is None:
+            return None
+        key = ("cam_centre", o.object_id)
+        if key not in self.cache:
+            R, t = self.T_world_cam[:3, :3], self.T_world_cam[:3, 3]
+            self.cache[key] = R.T @ (o.center_world_m - t)
         return self.cache[key]
 
     def askable(self) -> list[ObjectFacts]:

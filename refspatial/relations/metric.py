@@ -7,9 +7,11 @@ import numpy as np
 from .facts import ObjectFacts, ViewFacts
 from .registry import Quantity, Verdict, compare, predicate
 
-HEIGHT_MARGIN = (0.01, 0.10)  # (absolute m, share of the taller): closer heights are a near-tie
-VOLUME_MARGIN = 0.20  # share of the larger volume
-WIDTH_MARGIN = (0.01, 0.10)  # (absolute m, share of the wider)
+# A clear margin: a person comparing two heights or widths by eye calls 20 % (or 2 cm) a
+# difference worth a word; closer than that is a near-tie, never asked.
+HEIGHT_MARGIN = (0.02, 0.20)  # (absolute m, share of the taller)
+VOLUME_MARGIN = 0.20  # share of the larger volume, for both readings of "bigger"
+WIDTH_MARGIN = (0.02, 0.20)  # (absolute m, share of the wider)
 NEAR_GAP = (0.05, 0.5)  # near: footprint gap <= max(5 cm, 0.5 x mean footprint size)
 FAR_GAP = (0.25, 2.0)  # far: footprint gap >= max(25 cm, 2 x mean footprint size)
 CENTRED_DEG = 2.0  # within this, the camera needs no turn
@@ -21,32 +23,36 @@ def _relative(diff: float, scale: float, margin: tuple[float, float]) -> Verdict
 
 @predicate("taller_than", family="tall_short", arity=2, frame="world", inverse="shorter_than")
 def taller_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's height along gravity (world box) exceeds B's by max(1 cm, 10 % of the taller)."""
+    """A's height along gravity (world box) exceeds B's by max(2 cm, 20 % of the taller)."""
     return _relative(a.height_m - b.height_m, max(a.height_m, b.height_m), HEIGHT_MARGIN)
 
 
 @predicate("shorter_than", family="tall_short", arity=2, frame="world", inverse="taller_than")
 def shorter_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """B's height exceeds A's by max(1 cm, 10 % of the taller)."""
+    """B's height exceeds A's by max(2 cm, 20 % of the taller)."""
     return taller_than(v, b, a)
 
 
 @predicate("bigger_than", family="big_small", arity=2, frame="world", inverse="smaller_than")
 def bigger_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's volume (enclosed by its mesh, so a bowl counts its material, not its hollow) exceeds
-    B's by 20 % of the larger volume."""
-    return compare(a.volume_m3 - b.volume_m3, VOLUME_MARGIN * max(a.volume_m3, b.volume_m3))
+    """A is bigger than B by both readings of "big": the volume its mesh encloses (a bowl's
+    material) and the volume of its box (a bowl with its hollow, as the eye takes it), each
+    larger by 20 % of the larger. A plate against an apple, bigger by one reading and smaller
+    by the other, is undecided and never asked."""
+    enclosed = compare(a.volume_m3 - b.volume_m3, VOLUME_MARGIN * max(a.volume_m3, b.volume_m3))
+    box = compare(a.box_volume_m3 - b.box_volume_m3, VOLUME_MARGIN * max(a.box_volume_m3, b.box_volume_m3))
+    return enclosed if enclosed == box else None
 
 
 @predicate("smaller_than", family="big_small", arity=2, frame="world", inverse="bigger_than")
 def smaller_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """B's volume exceeds A's by 20 % of the larger volume."""
+    """B is bigger than A by both readings (see bigger_than)."""
     return bigger_than(v, b, a)
 
 
 @predicate("wider_than", family="wide_thin", arity=2, frame="viewer", inverse="thinner_than")
 def wider_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's extent along the viewer's right axis exceeds B's by max(1 cm, 10 % of the wider)."""
+    """A's extent along the viewer's right axis exceeds B's by max(2 cm, 20 % of the wider)."""
     wa, wb = a.extent_along(v.right_axis), b.extent_along(v.right_axis)
     return _relative(wa - wb, max(wa, wb), WIDTH_MARGIN)
 
@@ -93,22 +99,33 @@ def far(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 @predicate("distance_between", family="distance", arity=2, frame="world", inverse="distance_between",
            kind="measure", symmetric=True)
 def distance_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity:
-    """Metric distance between the two objects' world box centres, in metres."""
+    """The gap between the two objects, as a person measures "the distance between" them: the
+    shortest distance between their boxes (the gap between their oriented footprints on the
+    ground, combined with the height between their boxes when they rest on different levels),
+    in metres; 0 when they touch."""
+    gap, _ = _gap_and_scale(v, a, b)
+    return Quantity(float(gap), "m")
+
+
+def centre_distance(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity:
+    """The distance between the two objects' box centres, in metres (asked only as "between the
+    centres of")."""
     return Quantity(float(np.linalg.norm(a.center_world_m - b.center_world_m)), "m")
 
 
 def _ray(v: ViewFacts, o: ObjectFacts) -> np.ndarray | None:
-    """Camera-frame unit ray through the object's visible-mask centroid."""
-    if o.centroid_px is None or v.K is None:
+    """Camera-frame unit ray towards the object's centre (its box centre): what "aim at the
+    bowl" means, whatever part of it happens to be visible."""
+    centre = v.centre_in_camera(o)
+    if centre is None or o.centroid_px is None or centre[2] <= 0:
         return None
-    ray = np.linalg.inv(v.K) @ np.array([o.centroid_px[0], o.centroid_px[1], 1.0])
-    return ray / np.linalg.norm(ray)
+    return centre / np.linalg.norm(centre)
 
 
 @predicate("angle_between", family="angle", arity=2, frame="camera", inverse="angle_between",
            kind="measure", symmetric=True)
 def angle_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity | None:
-    """Angle subtended at the camera by the two objects' visible-mask centroids, in degrees."""
+    """Angle at the camera between the rays to the two objects' centres, in degrees."""
     ra, rb = _ray(v, a), _ray(v, b)
     if ra is None or rb is None:
         return None
@@ -117,23 +134,25 @@ def angle_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity | No
 
 @predicate("rotate_horizontal", family="rotation", arity=1, frame="camera", kind="measure")
 def rotate_horizontal(v: ViewFacts, a: ObjectFacts) -> Quantity | None:
-    """Yaw the camera must turn to centre the object's visible mask, degrees; positive = turn right.
+    """Yaw the camera must turn to face the object's centre, degrees; positive = turn right.
 
-    None when already within 2 degrees of centre (no direction to ask about).
+    None when already within 2 degrees of it (no direction to ask about) or unseen.
     """
-    if a.centroid_px is None or v.K is None:
+    ray = _ray(v, a)
+    if ray is None:
         return None
-    yaw = float(np.degrees(np.arctan2(a.centroid_px[0] - v.K[0, 2], v.K[0, 0])))
+    yaw = float(np.degrees(np.arctan2(ray[0], ray[2])))
     return None if abs(yaw) < CENTRED_DEG else Quantity(yaw, "deg")
 
 
 @predicate("rotate_vertical", family="rotation", arity=1, frame="camera", kind="measure")
 def rotate_vertical(v: ViewFacts, a: ObjectFacts) -> Quantity | None:
-    """Pitch the camera must turn to centre the object's visible mask, degrees; positive = tilt up.
+    """Pitch the camera must turn to face the object's centre, degrees; positive = tilt up.
 
-    None when already within 2 degrees of centre.
+    None when already within 2 degrees of it, or unseen.
     """
-    if a.centroid_px is None or v.K is None:
+    ray = _ray(v, a)
+    if ray is None:
         return None
-    pitch = float(np.degrees(np.arctan2(v.K[1, 2] - a.centroid_px[1], v.K[1, 1])))
+    pitch = float(np.degrees(np.arctan2(-ray[1], np.hypot(ray[0], ray[2]))))
     return None if abs(pitch) < CENTRED_DEG else Quantity(pitch, "deg")

@@ -1,0 +1,193 @@
+"""An independent check of the comparatives a dataset asks, under the strict human readings.
+
+Written apart from the relation engine (it imports nothing from ``refspatial.relations`` or
+``refspatial.questions``): it re-derives each comparative from what a record stores -- the
+objects' oriented boxes, supports and enclosed volumes, the depth map, the segmentation and
+the camera -- and checks every relation a question relied on:
+
+- left/right, in front/behind: the two boxes' extents along the viewer's axis (the camera's
+  right or forward axis laid on the ground) do not overlap, and neither object rests on the other;
+- closer to the camera: nearer both by the visible surface (median depth over its mask) and by
+  the box centre's depth;
+- bigger/smaller: larger both by enclosed volume and by box volume;
+- taller/shorter, wider/thinner: by at least 1 cm;
+- above/below: directly over or under (the boxes' ground outlines overlap, one's bottom not
+  below the other's top less 2 cm).
+
+    python -m refspatial.strict_audit DATASET_DIR [DATASET_DIR ...]
+
+prints how many relations each predicate was checked on and every violation, and exits 1 when
+there is any.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from .records import ShardReader
+from .scene import quat_to_matrix
+from .stats import load_manifest
+
+TOLERANCE_M = 0.01  # box extents and heights must differ by this much to count as ordered
+STACK_SLACK_M = 0.02  # "over" allows this much interpenetration of resting boxes
+
+
+class Box:
+    """One object as a record stores it: its oriented box's 8 corners, support and volume."""
+
+    def __init__(self, o: dict) -> None:
+        b = o["box_world"]
+        R = quat_to_matrix(b["quat_wxyz"])
+        half = np.asarray(b["size_m"]) / 2
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        self.id = o["id"]
+        self.centre = np.asarray(b["center_m"], float)
+        self.corners = self.centre + (signs * half) @ R.T
+        self.support = o.get("support")
+        self.volume = float(o["volume_m3"])
+        self.box_volume = float(np.prod(b["size_m"]))
+
+    def span(self, axis: np.ndarray) -> tuple[float, float]:
+        c = self.corners @ axis
+        return float(c.min()), float(c.max())
+
+
+class View:
+    """One record: boxes, viewer axes, depths."""
+
+    def __init__(self, sample: dict) -> None:
+        self.boxes = {o["id"]: Box(o) for o in sample["scene"]["objects"]}
+        T = np.asarray(sample["T_world_cam"])
+        self.R, self.t = T[:3, :3], T[:3, 3]
+        self.right = _ground(self.R[:, 0])
+        self.forward = _ground(self.R[:, 2])
+        self.depth, self.seg = sample["depth_m"], sample["seg"]
+
+    def stacked(self, a: Box, b: Box) -> bool:
+        return a.support == b.id or b.support == a.id
+
+    def surface_depth(self, a: Box) -> float:
+        d = self.depth[self.seg == a.id]
+        return float(np.median(d)) if d.size else float("inf")
+
+    def centre_depth(self, a: Box) -> float:
+        return float((self.R.T @ (a.centre - self.t))[2])
+
+
+def _ground(v: np.ndarray) -> np.ndarray:
+    g = np.array([v[0], v[1], 0.0])
+    return g / np.linalg.norm(g)
+
+
+def _before(v: View, a: Box, b: Box, axis: np.ndarray) -> bool:
+    """The whole of a lies before the whole of b along axis, and neither rests on the other."""
+    return not v.stacked(a, b) and a.span(axis)[1] < b.span(axis)[0]
+
+
+def _over(a: Box, b: Box) -> bool:
+    x_apart = a.span(np.array([1.0, 0, 0]))[1] < b.span(np.array([1.0, 0, 0]))[0] or \
+        b.span(np.array([1.0, 0, 0]))[1] < a.span(np.array([1.0, 0, 0]))[0]
+    y_apart = a.span(np.array([0, 1.0, 0]))[1] < b.span(np.array([0, 1.0, 0]))[0] or \
+        b.span(np.array([0, 1.0, 0]))[1] < a.span(np.array([0, 1.0, 0]))[0]
+    z = np.array([0, 0, 1.0])
+    return not (x_apart or y_apart) and a.span(z)[0] >= b.span(z)[1] - STACK_SLACK_M
+
+
+def _height(a: Box) -> float:
+    lo, hi = a.span(np.array([0, 0, 1.0]))
+    return hi - lo
+
+
+STRICT = {
+    "left_of": lambda v, a, b: _before(v, a, b, v.right),
+    "right_of": lambda v, a, b: _before(v, b, a, v.right),
+    "in_front_of": lambda v, a, b: _before(v, a, b, v.forward),
+    "behind": lambda v, a, b: _before(v, b, a, v.forward),
+    "closer_to_camera": lambda v, a, b: v.surface_depth(a) < v.surface_depth(b) and v.centre_depth(a) < v.centre_depth(b),
+    "bigger_than": lambda v, a, b: a.volume > b.volume and a.box_volume > b.box_volume,
+    "smaller_than": lambda v, a, b: a.volume < b.volume and a.box_volume < b.box_volume,
+    "taller_than": lambda v, a, b: _height(a) >= _height(b) + TOLERANCE_M,
+    "shorter_than": lambda v, a, b: _height(b) >= _height(a) + TOLERANCE_M,
+    "wider_than": lambda v, a, b: np.ptp(a.span(v.right)) >= np.ptp(b.span(v.right)) + TOLERANCE_M,
+    "thinner_than": lambda v, a, b: np.ptp(b.span(v.right)) >= np.ptp(a.span(v.right)) + TOLERANCE_M,
+    "above": lambda v, a, b: _over(a, b),
+    "below": lambda v, a, b: _over(b, a),
+}
+
+
+def asked(qa: dict) -> list[tuple[str, int, int, bool]]:
+    """(predicate, a, b, said) for every comparative a question's program relied on in its own
+    view: each object a relation kept, a yes/no query's answer, a pick's chosen option."""
+    steps = qa["steps"]
+    out = []
+    for n in steps:
+        if n.get("view", "self") != "self" or n.get("predicate") not in STRICT:
+            continue
+        p = n["predicate"]
+        if n["op"] == "relate" and len(n["inputs"]) == 2:
+            anchor = steps[n["inputs"][1]]["result"]
+            for k in n["result"]:
+                out.append((p, anchor, k, True) if n.get("reverse") else (p, k, anchor, True))
+        elif n["op"] == "query" and len(n["inputs"]) == 2:
+            a, b = (steps[i]["result"] for i in n["inputs"])
+            out.append((p, a, b, bool(n["result"])))
+        elif n["op"] == "pick":  # the result is the object id the predicate holds for against the other
+            options = [steps[i]["result"] for i in n["inputs"]]
+            out.extend((p, n["result"], other, True) for other in options if other != n["result"])
+    return out
+
+
+def audit(*roots: Path) -> tuple[Counter, list[str]]:
+    """Relations checked per predicate, and one line per violation."""
+    checked: Counter = Counter()
+    violations = []
+    for root in roots:
+        for shard in load_manifest(Path(root))["shards"]:
+            for sample in ShardReader(Path(root) / shard["file"]).iter(fields=("depth", "seg")):
+                view = View(sample)
+                for qa in sample["qa"]:
+                    for p, a, b, said in asked(qa):
+                        checked[p] += 1
+                        holds = STRICT[p](view, view.boxes[a], view.boxes[b])
+                        # A "no" must hold strictly too: the converse reading, with the objects swapped.
+                        if said and not holds or not said and not _strict_no(p, view, view.boxes[a], view.boxes[b]):
+                            violations.append(f"{qa['qa_id']}: {p}({a}, {b}) said {said}: {qa['prompt']}")
+    return checked, violations
+
+
+CONVERSE = {"left_of": "right_of", "right_of": "left_of", "in_front_of": "behind", "behind": "in_front_of",
+            "bigger_than": "smaller_than", "smaller_than": "bigger_than", "taller_than": "shorter_than",
+            "shorter_than": "taller_than", "wider_than": "thinner_than", "thinner_than": "wider_than",
+            "above": "below", "below": "above"}
+
+
+def _strict_no(p: str, v: View, a: Box, b: Box) -> bool:
+    """'A is not p of B' read strictly: the converse holds (A right of B for left_of), or for
+    closer_to_camera B is closer; for above/below, A is not over/under B at all."""
+    if p in ("above", "below"):
+        return not STRICT[p](v, a, b)
+    if p == "closer_to_camera":
+        return STRICT[p](v, b, a)
+    return STRICT[CONVERSE[p]](v, a, b)
+
+
+def main(argv: list[str] | None = None) -> int:
+    roots = [Path(a) for a in (sys.argv[1:] if argv is None else argv)]
+    if not roots:
+        print("usage: python -m refspatial.strict_audit DATASET_DIR [DATASET_DIR ...]", file=sys.stderr)
+        return 2
+    checked, violations = audit(*roots)
+    for p, n in sorted(checked.items()):
+        print(f"{p:<18} {n:>7} relations checked")
+    for line in violations:
+        print(f"violation: {line}")
+    print(f"{sum(checked.values())} relations checked, {len(violations)} violations")
+    return 1 if violations else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
