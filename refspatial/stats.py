@@ -47,6 +47,10 @@ REGION_SHARE_MAX = 0.35
 # longer follows the recipe, and a model sees too few long chains to learn them. Half, not all,
 # because small scenes cannot hold every chain (three objects leave no five-step description).
 STEP_SHARE_MIN_RATIO = 0.5
+# Every predicate in at least this share of the QA: 1 % of a dataset mixing several scene families,
+# 0.5 % of a single recipe's (some predicates are rare in one family: inside on a bare shelf).
+PREDICATE_FLOOR_MIXED = 0.01
+PREDICATE_FLOOR_SINGLE = 0.005
 # A check fires only beyond sampling noise: the 95 % Wilson interval of the share must lie
 # wholly past the threshold (its lower end above a dominance threshold, its upper end below a
 # shortfall one). A 12-scene smoke run holds ~40 choice answers, where 63 % for one letter is
@@ -316,7 +320,26 @@ def balance_checks(stats: dict) -> list[dict]:
     rows.append(_check("region", "answer points per 3x3 image cell", cells, REGION_SHARE_MAX))
     if stats.get("steps_wanted"):
         rows.append(_step_check(stats))
+    rows.append(_predicate_floor_check(stats))
     return rows
+
+
+def _predicate_floor_check(stats: dict) -> dict:
+    """The rarest of the registered predicates, as a share of all QA. "warn": even the share's
+    95 % upper bound is under the floor (1 % for a mix of recipes, 0.5 % for one)."""
+    what = "rarest predicate in QA"
+    n = stats.get("qa", 0)
+    if not n:
+        return _no_data("predicate floor", what, PREDICATE_FLOOR_SINGLE)
+    threshold = PREDICATE_FLOOR_MIXED if " + " in str(stats.get("recipe", "")) else PREDICATE_FLOOR_SINGLE
+    counts = {p: stats["qa_predicates"].get(p, 0) for p in predicate_families()}
+    item = min(counts, key=lambda p: (counts[p], p))
+    k = counts[item]
+    share, (lower, upper) = k / n, wilson_interval(k, n)
+    verdict = "warn" if upper < threshold else ("watch" if share < threshold else "ok")
+    message = (f"{what}: {item} in {share:.1%} of QA ({k} of {n}; 95% upper bound {upper:.1%}), "
+               f"floor {threshold:.1%}")
+    return _row("predicate floor", item, k, n, lower, upper, threshold, verdict, message)
 
 
 def format_text(stats: dict) -> str:

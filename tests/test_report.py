@@ -100,7 +100,8 @@ UNBALANCED = _crafted({"left_of": 300, "right_of": 40, "behind": 30},
 
 
 def test_balance_checks_fire_on_dominance_only():
-    assert [b for b in balance_checks(BALANCED) if b["verdict"] != "ok"] == []
+    # Crafted stats name no QA total, so the predicate floor (a shortfall check) has no data here.
+    assert [b for b in balance_checks(BALANCED) if b["verdict"] != "ok" and b["check"] != "predicate floor"] == []
     warned = {b["check"]: b for b in balance_checks(UNBALANCED) if b["verdict"] == "warn"}
     assert set(warned) == {"predicate", "answer:yes_no", "region"}
     assert warned["predicate"]["item"] == "left_of" and warned["predicate"]["share"] > PREDICATE_SHARE_MAX
@@ -133,7 +134,25 @@ def test_small_samples_are_watched_not_warned():
     """24 of 38 answers (63 %) is above the threshold but within a fair coin's noise."""
     rows = balance_checks(_crafted({}, {"pick": {"(A)": 14, "(B)": 24}}, [[0] * 3] * 3))
     verdicts = {b["check"]: b["verdict"] for b in rows}
-    assert verdicts == {"predicate": "no data", "answer:pick": "watch", "region": "no data"}
+    assert verdicts == {"predicate": "no data", "answer:pick": "watch", "region": "no data", "predicate floor": "no data"}
+
+
+def test_a_predicate_under_its_floor_warns_beyond_noise():
+    """Each registered predicate in at least 0.5 % of one recipe's QA, 1 % of a mix of recipes."""
+    from refspatial.stats import predicate_families
+
+    everything = {p: 200 for p in predicate_families()}
+    rows = {b["check"]: b for b in balance_checks({**BALANCED, "qa_predicates": everything, "qa": 10_000})}
+    assert rows["predicate floor"]["verdict"] == "ok"
+    rare = {**everything, "inside": 10}  # 0.1 % of 10,000 QA: beyond noise under 0.5 %
+    row = {b["check"]: b for b in balance_checks({**BALANCED, "qa_predicates": rare, "qa": 10_000})}["predicate floor"]
+    assert row["verdict"] == "warn" and row["item"] == "inside"
+    mixed = {**everything, "inside": 70}  # 0.7 %: fine for one recipe, short of a mix's 1 %
+    single = {b["check"]: b for b in balance_checks({**BALANCED, "qa_predicates": mixed, "qa": 10_000})}
+    assert single["predicate floor"]["verdict"] == "ok"
+    mix = {b["check"]: b for b in balance_checks({**BALANCED, "qa_predicates": mixed, "qa": 10_000,
+                                                  "recipe": "tabletop + shelf"})}
+    assert mix["predicate floor"]["verdict"] == "warn"
 
 
 WANTED = {"1": 0.2, "2": 0.2, "3": 0.2, "4": 0.2, "5": 0.2}
