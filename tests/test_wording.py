@@ -65,9 +65,10 @@ def test_multiview_prompts_name_the_image_before_the_description():
         assert "first image" in template and "second image" in template, template
         # No "... {ref} of the first image in the second image": the image words never trail the
         # description, where they could be read as part of its last anchor.
-        after = template.split("{ref}", 1)[1]
+        slot = "{is_ref}" if "{is_ref}" in template else "{ref}"
+        after = template.split(slot, 1)[1]
         assert not re.match(r"\s*(of|in) the first image", after), template
-        assert template.count("{ref}") == 1
+        assert template.count("{ref}") + template.count("{is_ref}") == 1, template
 
 
 def _turned(yaw_deg: float, objects):
@@ -149,3 +150,27 @@ def test_every_catalogue_side_has_a_visibility_rule_and_symmetric_things_have_no
         assert side == "none" or side in limits, f"{name}: side {side!r} has no rule in side_visibility"
     for name in ("bread", "lemon", "apple", "bowl", "phone"):  # ends or faces that look alike
         assert sides[name] == "none", name
+
+
+def test_multiview_prompt_does_not_say_the_object_twice():
+    from refspatial.questions.multiview import predicate_words
+
+    assert predicate_words("the object that is left of the mug") == "left of the mug"
+    assert predicate_words("the object between the bowl and the cup") == "between the bowl and the cup"
+    assert predicate_words("the red mug") == "the red mug"
+    template = Phrasebook.get().data["multiview_point"][0]
+    assert template.format(is_ref=predicate_words("the object near the bowl")) == (
+        "In the second image, point to the object that, in the first image, is near the bowl.")
+
+
+def test_visual_choice_marks_are_frames_when_the_description_names_a_box():
+    v = view(obj(0, "box", "red", -0.3, 0.0), obj(1, "mug", "blue", 0.0, 0.1), obj(2, "bowl", "green", 0.3, 0.0),
+             obj(3, "plate", "white", 0.0, 0.35))
+    qa = [FAMILIES["visual_choice"]({"self": v}, SPEC, 1, np.random.default_rng(seed)) for seed in range(40)]
+    qa = [q for q in qa if q is not None]
+    assert any("box" in q["ref"] for q in qa) and any("box" not in q["ref"] for q in qa)
+    for q in qa:
+        marks = set(re.findall(r"\) the \w+ (box|frame)\b", q["prompt"]))
+        assert marks == ({"frame"} if "box" in q["ref"] else {"box"}), q["prompt"]
+        # "Which box holds the box?" never: the mark noun and the object's name differ.
+        assert not ("box" in q["ref"] and re.search(r"\bbox(es)?\b", q["prompt"].replace(q["ref"], ""))), q["prompt"]

@@ -21,6 +21,7 @@ from .program import Node, ProgramError, execute
 MAX_HEADING_CHANGE_DEG = 90.0
 # Objects seen whole in both images: what a person compares to tell how the camera moved.
 MIN_SHARED_OBJECTS = 1
+OBJECT_HEADS = ("the object that is ", "the object ")  # Phrasebook's head for a description of any object
 
 
 def multiview(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
@@ -39,7 +40,17 @@ def _same_object(views, spec: dict, steps: int, rng) -> QA | None:
     # The same object, now located in the second image.
     program.append({"op": "unique", "inputs": [len(program) - 1], "text": text})
     return point_qa("multiview", "multiview_point", text, program, execute(program, views), views, spec, rng,
-                    ref=text, images=["other", "self"])
+                    fill={"is_ref": predicate_words(text)}, ref=text, images=["other", "self"])
+
+
+def predicate_words(text: str) -> str:
+    """A description as the words after "the object that, in the first image, is": a description
+    of any object ("the object that is left of the mug") keeps only its relations, so the prompt
+    does not say "the object that ... is the object that is left of the mug"."""
+    for head in OBJECT_HEADS:
+        if text.startswith(head):
+            return text[len(head):]
+    return text
 
 
 def heading_change_deg(first: ViewFacts, second: ViewFacts) -> float:
