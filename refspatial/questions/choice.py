@@ -10,7 +10,7 @@ from ..relations import PREDICATES, ViewFacts
 from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
 from .refer import relation_predicates
-
+from .sides import SIDE_PREDICATES, side_visible
 
 
 def choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
@@ -33,7 +33,8 @@ def _yes_no(views, predicates: list[str], rng) -> QA | None:
         name = predicates[int(k)]
         pred = PREDICATES[name]
         # All groups with the wanted answer (verdicts are cached), so rare relations still get asked.
-        groups = [g for g in permutations(view.askable(), pred.arity) if pred(view, *g) is want]
+        groups = [g for g in permutations(view.askable(), pred.arity) if pred(view, *g) is want
+                  and (name not in SIDE_PREDICATES or side_visible(view, g[1]))]
         if groups:
             break
     else:

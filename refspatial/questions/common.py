@@ -187,12 +187,14 @@ def trace_text(steps: list[dict]) -> str:
 
 
 def point_qa(family: str, template: str, text: str, program: list[Node], values: list,
-             views: dict[str, ViewFacts], spec: dict, rng, **extra: Any) -> QA | None:
-    """A point question about the object the program ends on, in the record's own view."""
+             views: dict[str, ViewFacts], spec: dict, rng, fill: dict[str, str] | None = None,
+             **extra: Any) -> QA | None:
+    """A point question about the object the program ends on, in the record's own view. ``fill``
+    gives the template's placeholders other than {ref} and {clauses}."""
     points = sample_points(views["self"], values[-1], spec["answer_points"], rng)
     if points is None:
         return None
-    prompt = Phrasebook.get().template(template, rng=rng).format(ref=text, clauses=text)
+    prompt = Phrasebook.get().template(template, rng=rng).format(ref=text, clauses=text, **(fill or {}))
     return make_qa(family, "point", prompt, format_points(points), program, values, views, rng,
                    points=points, target=values[-1], **extra)
 

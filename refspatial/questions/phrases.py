@@ -44,7 +44,8 @@ class Phrasebook:
 
     def relation_phrase(self, predicate: str, reverse: bool, rng: np.random.Generator, side: str = "front") -> str:
         entry = self.data["relations"][predicate]
-        return self.pick(entry["reverse" if reverse else "forward"], rng).format(side=side)
+        word = self.data["side_words"].get(side, side)
+        return self.pick(entry["reverse" if reverse else "forward"], rng).format(side=side, side_word=word)
 
     def comparative(self, predicate: str, rng: np.random.Generator) -> str:
         return self.pick(self.data["comparatives"][predicate], rng)

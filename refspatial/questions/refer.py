@@ -19,6 +19,7 @@ from ..colour import DISTINCT_DELTA_E, delta_e
 
 from ..relations import PREDICATES, ObjectFacts, ViewFacts
 from .program import ORDINAL_AXES, Node, ProgramError, execute, is_degenerate
+from .sides import SIDE_PREDICATES, side_visible
 
 MAX_RANK = 3
 COMBOS_CHECKED = 200_000  # part combinations checked at once per shape (array operations on bit masks)
@@ -408,6 +409,8 @@ def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref],
         pred = PREDICATES[name]
         for aid, ref in anchors.items():
             anchor = view.objects[aid]
+            if name in SIDE_PREDICATES and not side_visible(view, anchor):
+                continue  # its named side cannot be seen here
             if _holds(view, name, [target, anchor]):
                 parts.append(Relation(name, (ref,)))
             if pred.inverse is None and f"{name}:reverse" in phrased and _holds(view, name, [anchor, target]):

@@ -6,6 +6,8 @@ The record keeps the clean image and stores the marks (box, colour, label);
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ..relations import ViewFacts
@@ -44,8 +46,11 @@ def visual_choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.r
     labels = [{"label": m["label"], "object_id": m["object_id"]} for m in marks]
     program.append({"op": "mark", "inputs": [len(program) - 1], "marks": labels})
     values = execute(program, view)
-    options = " ".join(f"({m['label']}) the {m['color']} box" for m in marks)
-    prompt = book.template("visual_choice", rng=rng).format(ref=text, options=options)
+    # "Which box holds the box?" reads two ways: where the description names a box, the marks are frames.
+    mark = "frame" if re.search(r"\bbox", text) else "box"
+    options = " ".join(f"({m['label']}) the {m['color']} {mark}" for m in marks)
+    prompt = book.template("visual_choice", rng=rng).format(ref=text, options=options, mark=mark,
+                                                             marks={"box": "boxes", "frame": "frames"}[mark])
     return make_qa("visual_choice", "box", prompt, f"({values[-1]})", program, values, views, rng,
                    target=values[-2], ref=text, marks=marks)
 

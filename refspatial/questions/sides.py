@@ -1,0 +1,59 @@
+"""Which named sides a question may use: "on the handle side of the mug" only where the image
+shows which way the handle points.
+
+The facing-side predicates (relations/placement.py) are geometric truths about an object's
+semantic front; whether a person can check them in one picture depends on the feature that
+marks the front. A printed label on a can is seen only while the can turns it towards the
+camera; a mug's handle hides behind the mug only when it points away; a fork's tines show in
+its outline from any camera that looks down. The rule per kind of feature is data
+(`side_visibility` in templates.yaml): the largest angle, on the ground plane, between the
+object's front and the direction from the object to the camera.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from ..relations import ObjectFacts, ViewFacts
+from ..relations.placement import MIN_FRONT_TILT, NO_FRONT
+
+TEMPLATES = Path(__file__).with_name("templates.yaml")
+SIDE_PREDICATES = ("on_facing_side", "on_back_side")
+
+
+@lru_cache(maxsize=1)
+def side_limits() -> dict[str, float]:
+    """Side word -> largest front-to-camera angle (degrees) at which that side may be named;
+    the key "" holds the default for side words the table does not list."""
+    table = yaml.safe_load(TEMPLATES.read_text(encoding="utf-8"))["side_visibility"]
+    limits = {"": float(table[table["default"]]["max_deg"])}
+    for kind, rule in table.items():
+        if kind != "default":
+            limits.update({side: float(rule["max_deg"]) for side in rule["sides"]})
+    return limits
+
+
+def front_to_camera_deg(view: ViewFacts, o: ObjectFacts) -> float | None:
+    """Angle in degrees between the object's ground-projected front and the ground-projected
+    direction from the object to the camera; None where the front points mostly up or down."""
+    if o.front_world is None:
+        return None
+    front = np.asarray(o.front_world[:2], dtype=float)
+    to_camera = np.asarray(view.T_world_cam[:2, 3], dtype=float) - o.center_world_m[:2]
+    if np.linalg.norm(front) < MIN_FRONT_TILT or np.linalg.norm(to_camera) < 1e-6:
+        return None
+    cosine = front @ to_camera / (np.linalg.norm(front) * np.linalg.norm(to_camera))
+    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+
+
+def side_visible(view: ViewFacts, o: ObjectFacts) -> bool:
+    """Whether a question may name the object's side (``o.front_side``) in this view."""
+    if o.front_side == NO_FRONT:
+        return False
+    angle = front_to_camera_deg(view, o)
+    limits = side_limits()
+    return angle is not None and angle <= limits.get(o.front_side, limits[""])

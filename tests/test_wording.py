@@ -1,0 +1,176 @@
+"""Wording a person reads one way: enough phrasings per form, no ambiguous phrase, multi-view
+prompts that say which image they mean, camera moves only between comparable views, and named
+sides only where the image shows them."""
+
+import dataclasses
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from refspatial.camera import look_rotation
+from refspatial.questions import FAMILIES, questions_for_view
+from refspatial.questions.multiview import camera_move_askable, heading_change_deg, multiview
+from refspatial.questions.phrases import Phrasebook
+from refspatial.questions.sides import side_limits, side_visible
+
+from helpers import obj, view
+
+FORMS = ("location", "placement", "identify_name", "identify_point", "yes_no", "yes_no_unary", "pick",
+         "multiview_point", "visual_choice")
+SPEC = {"per_view": 40, "attempts_per_question": 10, "answer_points": 1,
+        "families": {f: 1 for f in FAMILIES}, "steps": {1: 1, 2: 1, 3: 1}}
+CATALOGUE = Path(__file__).parents[1] / "scene_assets" / "catalogue.yaml"
+
+
+def _strings(node, path=()):
+    """(path, text) of every string in the template data."""
+    if isinstance(node, str):
+        yield path, node
+    elif isinstance(node, dict):
+        for k, v in node.items():
+            yield from _strings(v, (*path, str(k)))
+    elif isinstance(node, list):
+        for k, v in enumerate(node):
+            yield from _strings(v, (*path, str(k)))
+
+
+def test_every_question_form_has_five_phrasings():
+    data = Phrasebook.get().data
+    # The quantity section is kept by the quantitative questions' owner (questions/quantity.py).
+    for form in FORMS:
+        assert len(set(data[form])) >= 5, form
+    for motion, options in data["camera_move"].items():
+        assert len(set(options)) >= 5, motion
+
+
+def test_no_phrase_reads_two_ways():
+    data = Phrasebook.get().data
+    banned = data["banned"]
+    assert "apart from" in banned and "clear of" in banned
+    for path, text in _strings({k: v for k, v in data.items() if k != "banned"}):
+        for phrase in banned:
+            assert phrase not in text.lower(), (path, text, banned[phrase])
+    for name, entry in data["relations"].items():
+        for phrase in (p for options in entry.values() for p in options):
+            # Descriptions may join a clause with "that is": a phrase starting with "that" would double it.
+            assert not phrase.startswith(("that ", "which ")), (name, phrase)
+    assert data["relations"]["separated"]["forward"][0] == "not touching"
+
+
+def test_multiview_prompts_name_the_image_before_the_description():
+    for template in Phrasebook.get().data["multiview_point"]:
+        assert "first image" in template and "second image" in template, template
+        # No "... {ref} of the first image in the second image": the image words never trail the
+        # description, where they could be read as part of its last anchor.
+        slot = "{is_ref}" if "{is_ref}" in template else "{ref}"
+        after = template.split(slot, 1)[1]
+        assert not re.match(r"\s*(of|in) the first image", after), template
+        assert template.count("{ref}") + template.count("{is_ref}") == 1, template
+
+
+def _turned(yaw_deg: float, objects):
+    """A view of ``objects`` from 1 m away on the ground, heading ``yaw_deg``, aimed at the origin."""
+    yaw = np.radians(yaw_deg)
+    forward = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    T = np.eye(4)
+    T[:3, :3] = look_rotation(yaw, -np.radians(30)) @ np.diag([1.0, -1.0, -1.0])
+    T[:3, 3] = -forward + [0, 0, 0.5]
+    right = np.array([np.sin(yaw), -np.cos(yaw), 0.0])
+    return dataclasses.replace(view(*objects, T_world_cam=T), right_axis=right, forward_axis=forward)
+
+
+SCENE = (obj(0, "mug", "red", -0.2, 0.0), obj(1, "bowl", "green", 0.2, 0.1), obj(2, "plate", "white", 0.0, 0.3))
+
+
+def _camera_moves(first, second) -> list[dict]:
+    views = {"other": first, "self": second}
+    qa = [multiview(views, SPEC, 1, np.random.default_rng(seed)) for seed in range(60)]
+    return [q for q in qa if q is not None and q["kind"].startswith("camera_")]
+
+
+def test_camera_move_only_between_views_less_than_90_degrees_apart():
+    first = _turned(90, SCENE)
+    near, far = _turned(125, SCENE), _turned(260, SCENE)
+    assert heading_change_deg(first, near) == pytest.approx(35, abs=1e-6)
+    assert heading_change_deg(first, far) == pytest.approx(170, abs=1e-6)
+    assert camera_move_askable(first, near) and not camera_move_askable(first, far)
+    assert _camera_moves(first, near), "35 degrees apart: camera moves are asked"
+    assert not _camera_moves(first, far), "170 degrees apart: no camera-move question"
+
+
+def test_camera_move_needs_an_object_seen_whole_in_both_views():
+    first = _turned(90, SCENE)
+    hidden = _turned(110, tuple(dataclasses.replace(o, status="hidden") for o in SCENE))
+    assert not camera_move_askable(first, hidden)
+    assert not _camera_moves(first, hidden)
+
+
+def _can_scene(front_y: float):
+    """A can with its label turned towards (front_y = -1) or away from (+1) the camera at y = -1,
+    a cup on its label side and a mug on the other."""
+    can = dataclasses.replace(obj(0, "can", "red", 0.0, 0.0, front=(0.0, front_y, 0.0)), front_side="label")
+    others = (obj(1, "cup", "blue", 0.0, 0.25 * front_y), obj(2, "mug", "green", 0.0, -0.25 * front_y),
+              obj(3, "plate", "white", 0.35, 0.0))
+    return view(can, *(dataclasses.replace(o, front_side="none") for o in others))
+
+
+def _side_prompts(v) -> list[str]:
+    qa = []
+    for seed in range(4):
+        qa += questions_for_view(v, SPEC, np.random.default_rng(seed), "k")
+    return [q["prompt"] for q in qa if {"on_facing_side", "on_back_side"} & set(q["predicates"])]
+
+
+def test_a_label_is_named_only_when_it_faces_the_camera():
+    towards, away = _can_scene(-1.0), _can_scene(1.0)
+    assert side_visible(towards, towards.objects[0]) and not side_visible(away, away.objects[0])
+    named = _side_prompts(towards)
+    assert named and all("label" in p for p in named)
+    assert not _side_prompts(away), "the label faces away: its side is never named"
+
+
+def test_side_rules_by_feature():
+    v = _can_scene(1.0)  # every front below points along +y, away from the camera (at y = -1)
+    sideways = (1.0, 0.0, 0.0)  # 90 degrees from the direction to the camera
+    def seen(side, front):
+        return side_visible(v, dataclasses.replace(obj(9, "x", "red", 0, 0, front=front), front_side=side))
+    assert not seen("label", sideways) and seen("handle", sideways) and seen("tines", (0.0, 1.0, 0.0))
+    assert not seen("handle", (0.0, 1.0, 0.0)) and not seen("none", (0.0, -1.0, 0.0))
+    assert not seen("screen", sideways) and seen("screen", (0.3, -1.0, 0.0))
+
+
+def test_every_catalogue_side_has_a_visibility_rule_and_symmetric_things_have_none():
+    categories = yaml.safe_load(CATALOGUE.read_text(encoding="utf-8"))["categories"]
+    sides = {name: c["front"]["side"] for name, c in categories.items()}
+    limits = side_limits()
+    for name, side in sides.items():
+        assert side == "none" or side in limits, f"{name}: side {side!r} has no rule in side_visibility"
+    for name in ("bread", "lemon", "apple", "bowl", "phone"):  # ends or faces that look alike
+        assert sides[name] == "none", name
+
+
+def test_multiview_prompt_does_not_say_the_object_twice():
+    from refspatial.questions.multiview import predicate_words
+
+    assert predicate_words("the object that is left of the mug") == "left of the mug"
+    assert predicate_words("the object between the bowl and the cup") == "between the bowl and the cup"
+    assert predicate_words("the red mug") == "the red mug"
+    template = Phrasebook.get().data["multiview_point"][0]
+    assert template.format(is_ref=predicate_words("the object near the bowl")) == (
+        "In the second image, point to the object that, in the first image, is near the bowl.")
+
+
+def test_visual_choice_marks_are_frames_when_the_description_names_a_box():
+    v = view(obj(0, "box", "red", -0.3, 0.0), obj(1, "mug", "blue", 0.0, 0.1), obj(2, "bowl", "green", 0.3, 0.0),
+             obj(3, "plate", "white", 0.0, 0.35))
+    qa = [FAMILIES["visual_choice"]({"self": v}, SPEC, 1, np.random.default_rng(seed)) for seed in range(40)]
+    qa = [q for q in qa if q is not None]
+    assert any("box" in q["ref"] for q in qa) and any("box" not in q["ref"] for q in qa)
+    for q in qa:
+        marks = set(re.findall(r"\) the \w+ (box|frame)\b", q["prompt"]))
+        assert marks == ({"frame"} if "box" in q["ref"] else {"box"}), q["prompt"]
+        # "Which box holds the box?" never: the mark noun and the object's name differ.
+        assert not ("box" in q["ref"] and re.search(r"\bbox(es)?\b", q["prompt"].replace(q["ref"], ""))), q["prompt"]
