@@ -9,6 +9,7 @@ import numpy as np
 from ..relations import PREDICATES, ViewFacts
 from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
+from .balance import PREDICATE_WEIGHTS, weighted_order
 from .refer import relation_predicates
 from .sides import SIDE_PREDICATES, side_visible
 
@@ -29,7 +30,7 @@ def _yes_no(views, predicates: list[str], rng) -> QA | None:
     # The answer is drawn first and kept while relations are tried in random order: were it
     # redrawn on failure, "no" (far more often available) would crowd out "yes".
     want = bool(rng.random() < 0.5)
-    for k in rng.permutation(len(predicates)):
+    for k in weighted_order(rng, [PREDICATE_WEIGHTS.get(p, 1.0) for p in predicates]):  # rare relations first, often
         name = predicates[int(k)]
         pred = PREDICATES[name]
         # All groups with the wanted answer (verdicts are cached), so rare relations still get asked.

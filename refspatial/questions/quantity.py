@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
+from .balance import QUANTITY_WEIGHTS, weighted_index
 from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
 from .program import Node, ProgramError, execute
@@ -16,7 +17,7 @@ KINDS = ONE_OBJECT + TWO_OBJECTS + ("count",)
 
 def quantity(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
     view = views["self"]
-    kind = KINDS[int(rng.integers(len(KINDS)))]
+    kind = KINDS[weighted_index(rng, [QUANTITY_WEIGHTS.get(k, 1.0) for k in KINDS])]
     if kind == "count":
         return _count(views, rng)
     objs = view.askable()

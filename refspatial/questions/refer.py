@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ..colour import DISTINCT_DELTA_E, delta_e
+from .balance import PREDICATE_WEIGHTS, weighted_index
 
 from ..relations import PREDICATES, ObjectFacts, ViewFacts
 from .program import ORDINAL_AXES, Node, ProgramError, execute, is_degenerate
@@ -209,10 +210,11 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
                                        lambda kind: _scored_parts(view, target, head, kind, phrased, rng))
         if not combos:
             view.cache[empty] = True
-        # Choose the first part's predicate uniformly, so frequent relations do not crowd out rare ones.
+        # Choose the first part's predicate by the balance weights (rare relations up), so frequent
+# relations do not crowd out rare ones.
         while combos and len(out) < wanted:
             names = sorted({c[0].rel.predicate for c in combos})
-            name = names[int(rng.integers(len(names)))]
+            name = names[weighted_index(rng, [PREDICATE_WEIGHTS.get(n, 1.0) for n in names])]
             same = [c for c in combos if c[0].rel.predicate == name]
             chosen = same[int(rng.integers(len(same)))]
             combos.remove(chosen)
