@@ -5,8 +5,9 @@ Written apart from the relation engine (it imports nothing from ``refspatial.rel
 objects' oriented boxes, supports and enclosed volumes, the depth map, the segmentation and
 the camera -- and checks every relation a question relied on:
 
-- left/right, in front/behind: the two boxes' extents along the viewer's axis (the camera's
-  right or forward axis laid on the ground) do not overlap, and neither object rests on the other;
+- left/right, in front/behind: the two objects' extents along the viewer's axis (the camera's
+  right or forward axis laid on the ground; from the stored ground outline of the mesh, or the
+  oriented box where a record has none) do not overlap, and neither object rests on the other;
 - closer to the camera: nearer both by the visible surface (median depth over its mask) and by
   the box centre's depth;
 - bigger/smaller: larger both by enclosed volume and by box volume;
@@ -50,9 +51,15 @@ class Box:
         self.support = o.get("support")
         self.volume = float(o["volume_m3"])
         self.box_volume = float(np.prod(b["size_m"]))
+        # The mesh's ground outline, where the record has one (a round bowl is narrower than its box).
+        outline = o.get("outline_world_m")
+        self.outline = None if not outline else np.asarray(outline, float).reshape(-1, 2)
 
     def span(self, axis: np.ndarray) -> tuple[float, float]:
-        c = self.corners @ axis
+        if self.outline is not None and axis[2] == 0:
+            c = self.outline @ axis[:2]
+        else:
+            c = self.corners @ axis
         return float(c.min()), float(c.max())
 
 

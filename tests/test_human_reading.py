@@ -48,3 +48,20 @@ def test_quantities_measure_what_the_words_say(case):
     for name, ids, expected in case["values"]:
         measure = QUANTITIES.get(name) or PREDICATES[name]
         assert measure(v, *(v.objects[i] for i in ids)).value == pytest.approx(expected, abs=1e-3), name
+
+
+def test_a_round_bowl_is_as_wide_as_it_is_whatever_its_turn():
+    """Widths come from the mesh's ground outline: a 16 cm bowl turned 45 degrees is 16 cm wide,
+    not the 22.6 cm of its turned footprint box (which made bowls "wider" than their twins)."""
+    from refspatial.relations.facts import _outline
+
+    angles = np.linspace(0, 2 * np.pi, 32, endpoint=False)
+    rim = np.column_stack([0.08 * np.cos(angles), 0.08 * np.sin(angles), np.zeros(32)])
+    turned = _facts({"id": 0, "category": "bowl", "at": [0.0, 0.0, 0.0], "size": [0.16, 0.16, 0.07]})
+    c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
+    box = np.array([[-0.08, -0.08], [0.08, -0.08], [0.08, 0.08], [-0.08, 0.08]]) @ np.array([[c, s], [-s, c]])
+    with_box = type(turned)(**{**turned.__dict__, "footprint_world": box})
+    with_outline = type(turned)(**{**turned.__dict__, "footprint_world": box, "outline_world": _outline(rim)})
+    right = np.array([1.0, 0.0, 0.0])
+    assert with_box.extent_along(right) == pytest.approx(0.16 * np.sqrt(2), abs=1e-3)
+    assert with_outline.extent_along(right) == pytest.approx(0.16, abs=0.002)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
 from ..colour import mean_lab
 
@@ -54,6 +55,9 @@ class ObjectFacts:
     is_support: bool = False  # its top face may hold other objects (plate, book, box...)
     pose_world: np.ndarray | None = None  # 4x4 world <- object
     lab: tuple[float, float, float] | None = None  # CIE Lab of the visible pixels' mean colour (None if unseen)
+    # (K, 2) convex outline of the posed mesh on the ground: a round bowl's true width along any
+    # axis (its footprint box, turned 45 degrees, is 1.41 times wider)
+    outline_world: np.ndarray | None = None
 
     @cached_property
     def center_world_m(self) -> np.ndarray:
@@ -91,7 +95,10 @@ class ObjectFacts:
         key = axis_world[:2].tobytes()
         extent = self._extents.get(key)
         if extent is None:
-            if self.footprint_world is not None:
+            if self.outline_world is not None:
+                coords = self.outline_world @ axis_world[:2]
+                extent = float(coords.max() - coords.min())
+            elif self.footprint_world is not None:
                 coords = self.footprint_world @ axis_world[:2]
                 extent = float(coords.max() - coords.min())
             else:
@@ -214,11 +221,19 @@ def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px
         obj.object_id, asset.category, asset.name, asset.color, aabb, float(centre @ right),
         float(centre @ forward), depth, px, status,
         footprint_world=_footprint(asset, T), front_world=T[:3, :3] @ np.asarray(asset.front_local),
+        outline_world=_outline(verts),
         front_side=asset.front_side, volume_m3=asset.visual.volume_m3,
         centroid_px=(float(cols.mean() + 0.5), float(rows.mean() + 0.5)) if px else None,
         visible_share=share, cavity=asset.cavity, is_support=asset.support, pose_world=T,
         lab=mean_lab(view.rgb[rows, cols]),
     )
+
+
+def _outline(verts_world: np.ndarray) -> np.ndarray:
+    """Convex outline of posed vertices on the ground, counter-clockwise (rounded as records store it)."""
+    xy = verts_world[:, :2]
+    hull = ConvexHull(xy)
+    return np.round(xy[hull.vertices], 6)
 
 
 def _footprint(asset, T: np.ndarray) -> np.ndarray:
