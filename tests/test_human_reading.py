@@ -3,6 +3,7 @@ back to readings a person disputes."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -60,8 +61,30 @@ def test_a_round_bowl_is_as_wide_as_it_is_whatever_its_turn():
     turned = _facts({"id": 0, "category": "bowl", "at": [0.0, 0.0, 0.0], "size": [0.16, 0.16, 0.07]})
     c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
     box = np.array([[-0.08, -0.08], [0.08, -0.08], [0.08, 0.08], [-0.08, 0.08]]) @ np.array([[c, s], [-s, c]])
-    with_box = type(turned)(**{**turned.__dict__, "footprint_world": box})
-    with_outline = type(turned)(**{**turned.__dict__, "footprint_world": box, "outline_world": _outline(rim)})
+    with_box = dataclasses.replace(turned, footprint_world=box)
+    with_outline = dataclasses.replace(turned, footprint_world=box, outline_world=_outline(rim))
     right = np.array([1.0, 0.0, 0.0])
     assert with_box.extent_along(right) == pytest.approx(0.16 * np.sqrt(2), abs=1e-3)
     assert with_outline.extent_along(right) == pytest.approx(0.16, abs=0.002)
+
+
+def test_closer_to_the_camera_is_not_asked_across_shelf_boards():
+    """A camera above a shelf puts the top board nearer in a straight line; a person compares how
+    far forward things stand, so across boards the relation is undecided."""
+    near = _facts({"id": 0, "category": "bowl", "at": [0.0, -0.3, 0.0], "size": [0.1, 0.1, 0.06], "depth": 0.8})
+    far = _facts({"id": 1, "category": "mug", "at": [0.2, 0.3, 0.0], "size": [0.08, 0.08, 0.1], "depth": 1.4})
+    assert PREDICATES["closer_to_camera"](view(near, far), near, far) is True  # one level: clear
+    up = dataclasses.replace(far, support=-2)  # the same mug on the first board
+    assert PREDICATES["closer_to_camera"](view(near, up), near, up) is None
+
+
+def test_outside_an_empty_container_is_never_used_to_describe():
+    from refspatial.questions.refer import Ref, _binary_parts
+    from refspatial.scene import Cavity
+
+    bowl = _facts({"id": 0, "category": "bowl", "at": [0.0, 0.2, 0.0], "size": [0.16, 0.16, 0.07]})
+    bowl = dataclasses.replace(bowl, cavity=Cavity("cylinder", (0.07, 0.07), 0.01, 0.07))
+    mug = _facts({"id": 1, "category": "mug", "at": [0.3, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
+    v = view(bowl, mug)
+    parts = _binary_parts(v, mug, {0: Ref(0, "bowl", "bowl")}, {"outside", "left_of", "right_of"})
+    assert PREDICATES["outside"](v, mug, bowl) is True and all(p.predicate != "outside" for p in parts)

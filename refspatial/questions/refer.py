@@ -405,6 +405,12 @@ def _holds(view: ViewFacts, name: str, objs: list[ObjectFacts]) -> bool:
     return PREDICATES[name](view, *objs) is True
 
 
+def _holds_anything(view: ViewFacts, container: ObjectFacts) -> bool:
+    """Some seen object is inside the container."""
+    return any(_holds(view, "inside", [o, container]) for o in view.objects
+               if o.object_id != container.object_id and o.status != "hidden")
+
+
 def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref], phrased: set[str]):
     parts = []
     for name in relation_predicates(phrased, 2):
@@ -413,6 +419,8 @@ def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref],
             anchor = view.objects[aid]
             if name in SIDE_PREDICATES and not side_visible(view, anchor):
                 continue  # its named side cannot be seen here
+            if name == "outside" and not _holds_anything(view, anchor):
+                continue  # "outside the empty pan" rules nothing out: a person reads it as nonsense
             if _holds(view, name, [target, anchor]):
                 parts.append(Relation(name, (ref,)))
             if pred.inverse is None and f"{name}:reverse" in phrased and _holds(view, name, [anchor, target]):

@@ -73,9 +73,11 @@ def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     (median depth over the visible mask) and its centre (the box centre's depth) are each
     nearer by max(3 cm, 5 % of the nearer depth). A pencil lying towards the camera, whose
     visible surface is near but whose centre is far, is undecided against a hammer between.
+    Undecided for things on different shelf boards: a camera above the shelf puts the higher
+    board nearer in a straight line, while a person compares how far forward they stand.
     Its converse, "farther from the camera than", is this predicate with the objects swapped.
     """
-    if not (np.isfinite(a.depth_m) and np.isfinite(b.depth_m)):
+    if not (np.isfinite(a.depth_m) and np.isfinite(b.depth_m)) or v.on_other_levels(a, b):
         return None
     surface = compare(b.depth_m - a.depth_m, depth_margin(a, b))
     ca, cb = v.centre_in_camera(a), v.centre_in_camera(b)
