@@ -88,3 +88,22 @@ def test_outside_an_empty_container_is_never_used_to_describe():
     v = view(bowl, mug)
     parts = _binary_parts(v, mug, {0: Ref(0, "bowl", "bowl")}, {"outside", "left_of", "right_of"})
     assert PREDICATES["outside"](v, mug, bowl) is True and all(p.predicate != "outside" for p in parts)
+
+
+def test_overlapping_things_have_no_rank_from_the_right():
+    """Two 30 cm baskets whose centres lie 5 cm apart across the view: "the second basket from
+    the right" is not something a person can pick; 20 cm apart it is."""
+    from refspatial.questions.program import ProgramError, execute
+
+    def program(x_far: float) -> tuple[list, object]:
+        a = _facts({"id": 0, "category": "basket", "at": [0.0, 0.0, 0.0], "size": [0.3, 0.3, 0.1]})
+        b = _facts({"id": 1, "category": "basket", "at": [x_far, 0.3, 0.0], "size": [0.3, 0.3, 0.1]})
+        nodes = [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": "basket", "color": None},
+                 {"op": "ordinal", "inputs": [1], "axis": "left_right", "end": "right", "rank": 2}]
+        return nodes, view(a, b)
+
+    nodes, v = program(0.05)
+    with pytest.raises(ProgramError, match="near-tie"):
+        execute(nodes, v)
+    nodes, v = program(0.2)
+    assert execute(nodes, v)[-1] == 0

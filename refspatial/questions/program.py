@@ -83,6 +83,7 @@ def _relate(view: ViewFacts, node: Node, ids: list[int], *anchors: int) -> list[
 
 
 ORDINAL_MARGIN_M = 0.03  # centres closer than this along an axis are a near-tie for ranking ("second from the left")
+ORDINAL_SIZE_SHARE = 0.5  # ...and so are centres closer than half the pair's mean extent along it
 ORDINAL_AXES = {
     # axis -> (coordinate of an object, end whose rank 1 has the smallest coordinate, margin)
     "left_right": (lambda o: o.lateral_m, "left", ORDINAL_MARGIN_M),
@@ -102,8 +103,16 @@ def _ordinal(view: ViewFacts, node: Node, ids: list[int]) -> int:
     if len(order) < max(rank, 2):
         raise ProgramError(f"ordinal rank {rank} over {len(order)} objects")
     coords = [key(view.objects[i]) for i in order]
+    axis = {"left_right": view.right_axis, "front_back": view.forward_axis}.get(node["axis"])
+    chosen = view.objects[order[rank - 1]]
     for j in (rank - 2, rank):  # neighbours before and after the chosen one
-        if 0 <= j < len(coords) and abs(coords[j] - coords[rank - 1]) <= margin:
+        if not 0 <= j < len(coords):
+            continue
+        gap = margin
+        if axis is not None:  # two baskets overlapping by most of their width have no order a person agrees on
+            extents = chosen.extent_along(axis) + view.objects[order[j]].extent_along(axis)
+            gap = max(margin, ORDINAL_SIZE_SHARE * extents / 2)
+        if abs(coords[j] - coords[rank - 1]) <= gap:
             raise ProgramError("ordinal neighbours are a near-tie")
     return order[rank - 1]
 
