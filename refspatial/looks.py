@@ -179,8 +179,10 @@ def surface(looks: Looks, kind: str, rng: np.random.Generator, images: tuple[Pat
     return SurfaceLook(look.name, _mean(image), Texture(key, image))
 
 
+@functools.lru_cache(maxsize=16)
 def image_folder(folder: str | Path) -> tuple[Path, ...]:
-    """The images of a user's texture folder, sorted by name (so runs do not depend on the file system)."""
+    """The images of a user's texture folder, sorted by name (so runs do not depend on the file
+    system); listed once per process, not once per scene."""
     path = Path(folder).expanduser()
     if not path.is_dir():
         raise LooksError(f"room.images: {path} is not a folder; point it at a folder of .png or .jpg images")

@@ -115,17 +115,17 @@ def _visual_settings(spec: mujoco.MjSpec, scene: Scene, opts: SpecOptions) -> No
     spec.stat.center = [0.0, 0.0, scene.table.top_z_m]
 
 
-def _mesh(spec: mujoco.MjSpec, name: str, vertices: np.ndarray, faces: np.ndarray, opts: SpecOptions,
-          mesh: MeshData | None = None) -> None:
+def _mesh(spec: mujoco.MjSpec, name: str, mesh: MeshData, opts: SpecOptions) -> None:
+    vertices, faces = mesh.vertices_m, mesh.faces
     if opts.mesh_dir is None:
         mesh_spec = spec.add_mesh(name=name, uservert=vertices.ravel().tolist(), userface=faces.ravel().tolist())
-        if mesh is not None and mesh.texcoords is not None:
+        if mesh.texcoords is not None:
             mesh_spec.usertexcoord = mesh.texcoords.ravel().tolist()
             mesh_spec.userfacetexcoord = mesh.face_texcoords.ravel().tolist()
         return
     import trimesh
 
-    if mesh is not None and mesh.texcoords is not None:  # STL has no texture coordinates; OBJ does
+    if mesh.texcoords is not None:  # STL has no texture coordinates; OBJ does
         filename = f"{name.replace('/', '_')}.obj"
         _write_obj(opts.mesh_dir / filename, vertices, faces, mesh.texcoords, mesh.face_texcoords)
     else:
@@ -158,7 +158,7 @@ def _add_object(spec: mujoco.MjSpec, obj, opts: SpecOptions, materials: dict[str
     body = spec.worldbody.add_body(name=name, pos=obj.pose.pos_world_m, quat=obj.pose.quat_wxyz)
     asset = obj.asset
     if opts.visual:
-        _mesh(spec, f"{name}_visual", asset.visual.vertices_m, asset.visual.faces, opts, asset.visual)
+        _mesh(spec, f"{name}_visual", asset.visual, opts)
         material, rgba = f"mat_{asset.material}", list(asset.rgba)
         if asset.texture is not None:  # the texture carries the whole colour: white rgba, own material
             material, rgba = _textured_material(spec, name, asset, materials, opts.mesh_dir), [1.0, 1.0, 1.0, asset.rgba[3]]
@@ -171,7 +171,7 @@ def _add_object(spec: mujoco.MjSpec, obj, opts: SpecOptions, materials: dict[str
     body.add_freejoint(name=f"{name}_free")
     for k, part in enumerate(asset.collision):
         mesh_name = f"{name}_col{k}"
-        _mesh(spec, mesh_name, part.vertices_m, part.faces, opts)
+        _mesh(spec, mesh_name, part, opts)
         body.add_geom(
             name=mesh_name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh_name, group=COLLISION_GROUP,
             rgba=[0.5, 0.5, 0.5, 0.0], density=DENSITY_KG_M3, friction=FRICTION, condim=6,

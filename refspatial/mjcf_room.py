@@ -130,7 +130,8 @@ def _table(spec: mujoco.MjSpec, scene: Scene, material: str | None, friction) ->
             sunk = [half[0] - SHADOW_SINK_M, half[1] - SHADOW_SINK_M, thick / 2 - SHADOW_SINK_M]
             world.add_geom(type=BOX, size=sunk, pos=[0, 0, top - thick / 2 - SHADOW_SINK_M / 2], material=material,
                            contype=0, conaffinity=0)
-    material = material or ""
+    if material is None:  # physics: legs touch nothing (the objects rest on the top and boards)
+        return
     # Legs, continued up as posts to the highest board on a shelf.
     leg_h = (t.top_z_m + (max(t.levels_m) if t.levels_m else 0.0) - TABLE_THICKNESS_M) / 2
     for sx in (-1, 1):
@@ -277,7 +278,3 @@ def _objects_centre(scene: Scene) -> tuple[float, float]:
     xy = np.array([o.pose.pos_world_m[:2] for o in scene.objects])
     lo, hi = xy.min(0), xy.max(0)
     return float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2)
-
-
-def light_summary(light: Light) -> dict:
-    return {"kind": light.kind, "kelvin": round(light.kelvin, 1), "intensity": round(light.intensity, 6)}

@@ -88,25 +88,16 @@ def _sets_off(surface_rgb: tuple[float, float, float], object_rgbs) -> bool:
     return all(delta_e(under, srgb_to_lab(np.array(rgb))) >= STAND_OUT_DELTA_E for rgb in object_rgbs)
 
 
+# load_recipe has made both paths absolute and checked that they exist.
 def _sky(recipe: Recipe) -> Path | None:
-    """The recipe's equirectangular image for the view out of the window (relative to the recipe)."""
+    """The recipe's equirectangular image for the view out of the window."""
     name = recipe.option("room", "sky")
-    if name is None:
-        return None
-    path = Path(name) if Path(name).is_absolute() else recipe.path.parent / name
-    if not path.is_file():
-        raise looks_mod.LooksError(f"room.sky: {path} is not a file; point it at an equirectangular .png or .jpg")
-    return path
+    return None if name is None else Path(name)
 
 
 def _images(recipe: Recipe) -> tuple[Path, ...]:
     folder = recipe.option("room", "images")
-    if folder is None:
-        return ()
-    path = Path(folder)
-    if not path.is_absolute():  # relative to the recipe file, as a user writing it would expect
-        path = recipe.path.parent / path
-    return looks_mod.image_folder(path)
+    return () if folder is None else looks_mod.image_folder(folder)
 
 
 def _surface(looks: looks_mod.Looks, kind: str, rng: np.random.Generator, images: tuple[Path, ...]) -> Surface:

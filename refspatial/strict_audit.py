@@ -73,13 +73,17 @@ class View:
         self.right = _ground(self.R[:, 0])
         self.forward = _ground(self.R[:, 2])
         self.depth, self.seg = sample["depth_m"], sample["seg"]
+        self._surface: dict[int, float] = {}
 
     def stacked(self, a: Box, b: Box) -> bool:
         return a.support == b.id or b.support == a.id
 
     def surface_depth(self, a: Box) -> float:
-        d = self.depth[self.seg == a.id]
-        return float(np.median(d)) if d.size else float("inf")
+        """Median depth over the object's mask, once per object (questions ask the same pairs often)."""
+        if a.id not in self._surface:
+            d = self.depth[self.seg == a.id]
+            self._surface[a.id] = float(np.median(d)) if d.size else float("inf")
+        return self._surface[a.id]
 
     def centre_depth(self, a: Box) -> float:
         return float((self.R.T @ (a.centre - self.t))[2])
@@ -95,17 +99,21 @@ def _before(v: View, a: Box, b: Box, axis: np.ndarray) -> bool:
     return not v.stacked(a, b) and a.span(axis)[1] < b.span(axis)[0]
 
 
+X, Y, Z = np.eye(3)
+
+
+def _apart(a: Box, b: Box, axis: np.ndarray) -> bool:
+    (a_lo, a_hi), (b_lo, b_hi) = a.span(axis), b.span(axis)
+    return a_hi < b_lo or b_hi < a_lo
+
+
 def _over(a: Box, b: Box) -> bool:
-    x_apart = a.span(np.array([1.0, 0, 0]))[1] < b.span(np.array([1.0, 0, 0]))[0] or \
-        b.span(np.array([1.0, 0, 0]))[1] < a.span(np.array([1.0, 0, 0]))[0]
-    y_apart = a.span(np.array([0, 1.0, 0]))[1] < b.span(np.array([0, 1.0, 0]))[0] or \
-        b.span(np.array([0, 1.0, 0]))[1] < a.span(np.array([0, 1.0, 0]))[0]
-    z = np.array([0, 0, 1.0])
-    return not (x_apart or y_apart) and a.span(z)[0] >= b.span(z)[1] - STACK_SLACK_M
+    """Directly over: the ground outlines meet along x and y, and a's bottom is not below b's top."""
+    return not (_apart(a, b, X) or _apart(a, b, Y)) and a.span(Z)[0] >= b.span(Z)[1] - STACK_SLACK_M
 
 
 def _height(a: Box) -> float:
-    lo, hi = a.span(np.array([0, 0, 1.0]))
+    lo, hi = a.span(Z)
     return hi - lo
 
 

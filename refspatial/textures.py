@@ -80,11 +80,6 @@ def _lattice(rng: np.random.Generator, size: tuple[int, int], cells: tuple[int, 
     return big[y0:y0 + h, x0:x0 + w]
 
 
-def stretched(rng: np.random.Generator, size: tuple[int, int], cells: tuple[int, int], octaves: int = 3) -> np.ndarray:
-    """Noise drawn coarse along x and fine along y: brushed metal, wood fibres, fur strands."""
-    return noise(rng, size, cells, octaves)
-
-
 # Variation added on top of the scaled colour: scaling alone leaves a black object's grain
 # below one 8-bit level, so it renders perfectly flat.
 LIFT = 0.2
@@ -123,7 +118,7 @@ def _grain(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, 
     u, v = _grid(size)
     warp = noise(rng, size, (2, 4), 3)
     rings = 0.5 + 0.5 * np.sin(2 * np.pi * (v * p["rings"] + warp * p["warp"]))
-    fibres = stretched(rng, size, (64, 4), 2)
+    fibres = noise(rng, size, (64, 4), 2)
     factor = 1.0 + p["depth"] * (rings - 0.5) + 0.08 * (fibres - 0.5)
     return shade(rgb, factor)
 
@@ -192,7 +187,7 @@ def _weave(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, 
 @generator("fur")
 def _fur(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, int]) -> Image:
     """Fur or plush: fine strands in clumps."""
-    strands = stretched(rng, size, (8, 128), 2)
+    strands = noise(rng, size, (8, 128), 2)
     clumps = noise(rng, size, (6, 6), 3)
     factor = 1.0 + p["depth"] * (strands - 0.5) + 0.5 * p["depth"] * (clumps - 0.5)
     return shade(rgb, factor)
@@ -201,7 +196,7 @@ def _fur(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, in
 @generator("brushed")
 def _brushed(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, int]) -> Image:
     """Brushed metal: fine streaks along x and a slow sheen."""
-    streaks = stretched(rng, size, (128, 2), 2)
+    streaks = noise(rng, size, (128, 2), 2)
     sheen = noise(rng, size, (2, 2), 2)
     factor = 1.0 + p["streaks"] * (streaks - 0.5) + p["sheen"] * (sheen - 0.5)
     return shade(rgb, factor)
@@ -220,7 +215,7 @@ def _glaze(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, 
 def _skin(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, int]) -> Image:
     """Fruit skin: streaks along the stem axis (v) blending toward a second tone, pores and
     lenticel dots."""
-    streak = stretched(rng, size, (2, 24), 3)
+    streak = noise(rng, size, (2, 24), 3)
     blush = noise(rng, size, (2, 3), 3)
     second = np.clip(rgb * np.asarray(p["second"], np.float32), 0, 1)
     amount = np.clip(p["blend"] * (blush - 0.35) * 2 + 0.3 * p["blend"] * (streak - 0.5), 0, 1)
@@ -282,7 +277,7 @@ def _label(p: dict, rgb: np.ndarray, rng: np.random.Generator, size: tuple[int, 
     image = mix(image, ink, np.maximum(art, lines) * band)
     image = mix(image, np.clip(rgb * 0.55, 0, 1), (stripe & band).astype(np.float32))
     rim = np.asarray(p["rim_rgb"], np.float32)
-    finish = shade(rgb * rim if p["rim_tinted"] else rim, 1.0 + 0.05 * (stretched(rng, size, (64, 2), 2) - 0.5))
+    finish = shade(rgb * rim if p["rim_tinted"] else rim, 1.0 + 0.05 * (noise(rng, size, (64, 2), 2) - 0.5))
     return np.where(band[..., None], image, finish)
 
 

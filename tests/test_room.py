@@ -155,15 +155,12 @@ def test_the_surface_under_the_objects_sets_them_off() -> None:
 
     recipe = load_recipe("tabletop")
     table = Table((1.2, 0.8), 0.75, (1, 1, 1, 1), "flat")
-    tried = 0
     for seed in range(12):
         plain = sample_room(recipe, table, np.random.default_rng(seed))
         clash = plain.top.rgb  # an object the very colour of the first top drawn
         dressed = sample_room(recipe, table, np.random.default_rng(seed), object_rgbs=(clash,))
-        tried += 1
         assert delta_e(srgb_to_lab(np.array(dressed.top.rgb)), srgb_to_lab(np.array(clash))) >= STAND_OUT_DELTA_E
         assert dressed.wall.look == plain.wall.look  # only the top is drawn again
-    assert tried == 12
 
 
 def test_a_recipe_can_dress_the_room_with_its_own_images(tmp_path, catalogue) -> None:
