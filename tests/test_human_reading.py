@@ -107,3 +107,15 @@ def test_overlapping_things_have_no_rank_from_the_right():
         execute(nodes, v)
     nodes, v = program(0.2)
     assert execute(nodes, v)[-1] == 0
+
+
+def test_no_yes_no_question_asks_whether_something_is_outside_an_empty_container():
+    from refspatial.questions.choice import _yes_no
+    from refspatial.scene import Cavity
+
+    bowl = _facts({"id": 0, "category": "bowl", "at": [0.0, 0.2, 0.0], "size": [0.16, 0.16, 0.07]})
+    bowl = dataclasses.replace(bowl, cavity=Cavity("cylinder", (0.07, 0.07), 0.01, 0.07))
+    mug = _facts({"id": 1, "category": "mug", "at": [0.3, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
+    for seed in range(20):
+        qa = _yes_no({"self": view(bowl, mug)}, ["outside"], np.random.default_rng(seed))
+        assert qa is None, qa["prompt"]

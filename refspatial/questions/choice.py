@@ -10,7 +10,7 @@ from ..relations import PREDICATES, ViewFacts
 from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
 from .balance import PREDICATE_WEIGHTS, weighted_order
-from .refer import relation_predicates
+from .refer import holds_anything, relation_predicates
 from .sides import SIDE_PREDICATES, side_visible
 
 
@@ -35,7 +35,8 @@ def _yes_no(views, predicates: list[str], rng) -> QA | None:
         pred = PREDICATES[name]
         # All groups with the wanted answer (verdicts are cached), so rare relations still get asked.
         groups = [g for g in permutations(view.askable(), pred.arity) if pred(view, *g) is want
-                  and (name not in SIDE_PREDICATES or side_visible(view, g[1]))]
+                  and (name not in SIDE_PREDICATES or side_visible(view, g[1]))
+                  and (name != "outside" or holds_anything(view, g[1]))]  # "not inside the empty pot?" is idle
         if groups:
             break
     else:

@@ -405,7 +405,7 @@ def _holds(view: ViewFacts, name: str, objs: list[ObjectFacts]) -> bool:
     return PREDICATES[name](view, *objs) is True
 
 
-def _holds_anything(view: ViewFacts, container: ObjectFacts) -> bool:
+def holds_anything(view: ViewFacts, container: ObjectFacts) -> bool:
     """Some seen object is inside the container."""
     return any(_holds(view, "inside", [o, container]) for o in view.objects
                if o.object_id != container.object_id and o.status != "hidden")
@@ -419,7 +419,7 @@ def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref],
             anchor = view.objects[aid]
             if name in SIDE_PREDICATES and not side_visible(view, anchor):
                 continue  # its named side cannot be seen here
-            if name == "outside" and not _holds_anything(view, anchor):
+            if name == "outside" and not holds_anything(view, anchor):
                 continue  # "outside the empty pan" rules nothing out: a person reads it as nonsense
             if _holds(view, name, [target, anchor]):
                 parts.append(Relation(name, (ref,)))
