@@ -119,3 +119,37 @@ def test_no_yes_no_question_asks_whether_something_is_outside_an_empty_container
     for seed in range(20):
         qa = _yes_no({"self": view(bowl, mug)}, ["outside"], np.random.default_rng(seed))
         assert qa is None, qa["prompt"]
+
+
+def test_a_jar_in_a_basket_is_not_asked_about_the_table_edge():
+    """A person judges the basket at the edge, not the jar in it (annotator: "is the jar near the
+    edge? no" for a jar in a basket at the counter's back edge)."""
+    from refspatial.scene import Cavity
+
+    basket = _facts({"id": 0, "category": "basket", "at": [0.0, 0.22, 0.0], "size": [0.3, 0.3, 0.12]})
+    basket = dataclasses.replace(basket, cavity=Cavity("box", (0.14, 0.14), 0.01, 0.12))
+    jar = _facts({"id": 1, "category": "jar", "at": [0.0, 0.22, 0.01], "size": [0.08, 0.08, 0.1]})
+    alone = _facts({"id": 1, "category": "jar", "at": [0.4, 0.31, 0.0], "size": [0.08, 0.08, 0.1]})
+    assert PREDICATES["at_edge"](view(basket, alone), alone) is True
+    assert PREDICATES["at_edge"](view(basket, jar), jar) is None
+
+
+def test_a_white_pot_that_renders_gray_is_not_called_white():
+    """Colour words follow the picture: a "white" pot whose pixels average a mid gray loses its
+    word, even with no other pot around to confuse it with."""
+    from refspatial.colour_words import _table
+    from refspatial.questions.refer import colour_tells_apart
+
+    pot = dataclasses.replace(_facts({"id": 0, "category": "plant_pot", "at": [0.0, 0.2, 0.0],
+                                      "size": [0.15, 0.15, 0.15]}), color="white")
+    prototypes = _table()[0]
+    lit = dataclasses.replace(pot, lab=tuple(prototypes["white"]))
+    shaded = dataclasses.replace(pot, lab=tuple(prototypes["gray"] + [3.0, 0.0, 0.0]))
+    assert colour_tells_apart(view(lit), lit, "plant_pot")
+    assert not colour_tells_apart(view(shaded), shaded, "plant_pot")
+
+
+def test_every_catalogue_colour_word_has_a_rendered_prototype(catalogue):
+    from refspatial.colour_words import known
+
+    assert [c for c in catalogue.colors if not known(c)] == []

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..annotate import rle_encode
 from ..relations import TABLE, ViewFacts
-from ..relations.free_space import DIRECTIONS, solve
+from ..relations.free_space import DIRECTIONS, image_clearance, solve
 from .common import QA, erosion_px, format_points, make_qa, sample_mask_points
 from .phrases import Phrasebook
 from .program import Node, ProgramError, execute
@@ -88,7 +88,9 @@ def _question(views, spec: dict, refs, constraints: list[dict], rng) -> QA | Non
     except ProgramError:
         return None
     answer = solve(view, as_constraints(constraints, values, anchors))
-    extra = sample_mask_points(answer.mask, spec["answer_points"] - 1, rng, erosion_px(view)) \
+    # Further points keep clear of every object in the picture too, as the first one does.
+    roomy = answer.mask & image_clearance(view, answer.support)
+    extra = sample_mask_points(roomy, spec["answer_points"] - 1, rng, erosion_px(view)) \
         if spec["answer_points"] > 1 else []
     if extra is None:
         return None

@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ..colour import DISTINCT_DELTA_E, delta_e
+from ..colour_words import reads_as
 from .balance import PREDICATE_WEIGHTS, weighted_index
 
 from ..relations import PREDICATES, ObjectFacts, ViewFacts
@@ -120,13 +121,15 @@ def simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
 
 def colour_tells_apart(view: ViewFacts, target: ObjectFacts, category: str | None) -> bool:
     """Whether the target's colour word may pick it out among things of ``category`` (any, when
-    None): every seen one named by another colour must also look clearly different in the image
-    (CIE Lab distance of the mean visible colours at least DISTINCT_DELTA_E). A "white" and a
-    "silver" spoon that render alike are told apart some other way. Facts without rendered
-    colours (records written before they were stored) fall back to the words alone."""
+    None): its rendered colour must read as that word (``colour_words.reads_as``: a "white" pot
+    in shadow renders gray), and every seen one named by another colour must also look clearly
+    different in the image (CIE Lab distance of the mean visible colours at least
+    DISTINCT_DELTA_E). A "white" and a "silver" spoon that render alike are told apart some
+    other way. Facts without rendered colours (records written before they were stored) fall
+    back to the words alone."""
     key = ("colour_apart", target.object_id, category)
     if key not in view.cache:
-        view.cache[key] = all(
+        view.cache[key] = (target.lab is None or reads_as(target.lab, target.color)) and all(
             o.lab is None or target.lab is None or delta_e(o.lab, target.lab) >= DISTINCT_DELTA_E
             for o in view.objects
             if o.object_id != target.object_id and o.status != "hidden" and category in (None, o.category)

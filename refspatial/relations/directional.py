@@ -20,6 +20,12 @@ DEPTH_MARGIN_REL = 0.05  # share of the nearer object's depth
 BETWEEN_MIN_GAP_M = 0.10  # anchors closer than this enclose no corridor worth naming
 BETWEEN_T = (0.2, 0.8)  # where along the anchor segment the subject must sit (fraction)
 BETWEEN_OUTSIDE_M = 0.05  # clearly outside the corridor beyond this lateral slack
+# A cabinet's half-width made a corridor 35 cm wide: a basket beside the line looked "between" to
+# nobody (annotator). The corridor is also at most this share of the anchors' distance wide...
+BETWEEN_LATERAL_SHARE = 0.25
+# ...and a person checks "between" in the picture too: the subject's mask centroid must sit in the
+# middle of the image segment joining the anchors' centroids, at most this share of its length off it.
+BETWEEN_IMAGE_T = (0.1, 0.9)
 
 
 def clear_order(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, axis: np.ndarray, ca: float, cb: float) -> Verdict:
@@ -89,31 +95,53 @@ def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 @predicate("between", family="between", arity=3, frame="world")
 def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Verdict:
-    """A lies in the ground-plane corridor joining B and C, on the same level as both.
+    """A lies in the ground-plane corridor joining B and C, on the same level as both, and looks it.
 
-    With t the position of A's centre along the segment B->C (0 at B, 1 at C) and
-    d its distance from that line: True when 0.2 <= t <= 0.8 and d is within half
-    of the wider anchor's narrow footprint side; False when t < 0, t > 1 or d
-    exceeds that by 5 cm; undecided otherwise, and when B and C are < 10 cm apart.
+    With t the position of A's centre along the segment B->C (0 at B, 1 at C) and d its
+    distance from that line: True when 0.2 <= t <= 0.8, d is within the corridor's
+    half-width and within a quarter of the B-C distance, and in the
+    image A's mask centroid lies between the anchors' (at 0.1 to 0.9 along the segment
+    joining their centroids, at most a quarter of its length off it). The half-width is half
+    the wider anchor's extent across the line. False when t < 0, t > 1 or d exceeds the
+    half-width by 5 cm; undecided otherwise, when B and C are
+    < 10 cm apart, and when True's image test fails or cannot be made (an unseen object).
     False when the three rest on different levels (the table top, a shelf board:
     what they stand on, followed down through stacks), as on a shelf a bear on the
     top board is not "between" two things on the board below whatever the plan view.
     """
     if v.on_other_levels(a, b, c):
         return False
-    p, q, r = (o.center_world_m[:2] for o in (a, b, c))
-    seg = r - q
-    length = float(np.linalg.norm(seg))
+    t, d, length = _along_and_off(*(o.center_world_m[:2] for o in (a, b, c)))
     if length < BETWEEN_MIN_GAP_M:
         return None
-    t = float((p - q) @ seg) / length**2
-    d = abs(float(seg[0] * (p - q)[1] - seg[1] * (p - q)[0])) / length
-    half_width = 0.5 * max(b.footprint_m.min(), c.footprint_m.min())
-    if BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= half_width:
-        return True
+    # The corridor is as wide as the anchors are across it (a banana lying along the line is
+    # narrow there, whatever its turned footprint box says).
+    seg = c.center_world_m[:2] - b.center_world_m[:2]
+    across = np.array([-seg[1], seg[0], 0.0]) / length
+    half_width = 0.5 * max(b.extent_along(across), c.extent_along(across))
     if t < 0 or t > 1 or d > half_width + BETWEEN_OUTSIDE_M:
         return False
+    if BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= min(half_width, BETWEEN_LATERAL_SHARE * length):
+        return True if _between_in_image(a, b, c) else None
     return None
+
+
+def _along_and_off(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> tuple[float, float, float]:
+    """Where p lies along the segment q->r (0 at q, 1 at r), its distance from that line, and
+    the segment's length (t and d are 0 for a degenerate segment)."""
+    seg = np.asarray(r, float) - q
+    length = float(np.linalg.norm(seg))
+    if length < 1e-9:
+        return 0.0, 0.0, length
+    rel = np.asarray(p, float) - q
+    return float(rel @ seg) / length**2, abs(float(seg[0] * rel[1] - seg[1] * rel[0])) / length, length
+
+
+def _between_in_image(a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> bool:
+    if a.centroid_px is None or b.centroid_px is None or c.centroid_px is None:
+        return False
+    t, d, length = _along_and_off(np.array(a.centroid_px), np.array(b.centroid_px), np.array(c.centroid_px))
+    return length > 0 and BETWEEN_IMAGE_T[0] <= t <= BETWEEN_IMAGE_T[1] and d <= BETWEEN_LATERAL_SHARE * length
 
 
 IMAGE_ROW_MARGIN = 0.04  # share of the image height between mask centroids

@@ -6,12 +6,18 @@ import numpy as np
 
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .registry import Verdict, predicate
+from .vertical import containment
 
 FACING_DEG = 45.0  # within this of B's front: on its facing side (or back side, mirrored)
-NOT_FACING_DEG = 75.0  # beyond this from the front direction: clearly not on the facing side
+# A person reads "on the side facing away from the lamp's shade" as the whole half-plane behind
+# it: a thing 60 degrees off that direction is on that side for them, so "not on it" waits until
+# the thing is clearly across the line through B (90 degrees, plus 10 of slack).
+NOT_FACING_DEG = 100.0
 MIN_FRONT_TILT = 0.7  # |horizontal part| of B's front: fronts pointing up/down have no side
 NO_FRONT = "none"  # catalogue side name of objects without a semantic front (apples, bowls...)
-EDGE_M = (0.10, 0.18)  # at the edge: within 10 cm of a table edge; clearly not beyond 18 cm
+# At the edge: within 10 cm of a table edge. "Not near the edge" waits until 25 cm: at the back of
+# a counter, foreshortening makes 20 cm look like nothing (annotator: a jar 18 cm in was "near").
+EDGE_M = (0.10, 0.25)
 CORNER_M = (0.18, 0.28)  # at a corner: within 18 cm of both edges at a corner; not when either > 28 cm
 
 
@@ -44,7 +50,8 @@ def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A lies on B's semantic front side (its handle, screen, spout, label...), in B's own frame.
 
     The angle between B's ground-projected front vector and the direction from B
-    to A: True within 45 degrees, False beyond 75, undecided between; undecided
+    to A: True within 45 degrees, False beyond 100 (clearly across the line through B
+    that splits its front half from its back half), undecided between; undecided
     when B's front points mostly up or down, or B has no semantic front (side "none").
     """
     return _within(_side_angle(a, b), FACING_DEG, NOT_FACING_DEG)
@@ -60,8 +67,11 @@ def on_back_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 def _edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
     """Distances (x, y) from A's footprint to the nearest table edges, for objects standing on the table.
 
-    None on a room's floor: its edges are not the room's walls and are out of the picture."""
+    None on a room's floor (its edges are not the room's walls and are out of the picture), and
+    for a thing in a container: a person judges the basket at the edge, not the jar in it."""
     if a.support != TABLE or not v.table_size_m[0] or v.table_surface == "floor":
+        return None
+    if any(o.object_id != a.object_id and containment(a, o) is not False for o in v.objects):
         return None
     half = np.asarray(v.table_size_m) / 2
     corners = a.footprint_world
@@ -70,9 +80,9 @@ def _edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
 
 @predicate("at_edge", family="corner_edge", arity=1, frame="world")
 def at_edge(v: ViewFacts, a: ObjectFacts) -> Verdict:
-    """A stands on the table with its footprint within 10 cm of a table edge (False beyond 18 cm).
+    """A stands on the table with its footprint within 10 cm of a table edge (False beyond 25 cm).
 
-    Only for objects whose support is the table; undecided otherwise.
+    Only for objects whose support is the table and that no container holds; undecided otherwise.
     """
     d = _edge_distances(v, a)
     if d is None:
