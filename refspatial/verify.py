@@ -4,7 +4,9 @@ Checks, per QA: every node's stored value equals the recomputed one; referring
 programs are not degenerate; the step count follows the rule; point answers lie
 on the target's visible mask (placement points on the stored free-region mask,
 which must equal the recomputed one); choice letters, counts and quantities agree
-with the program's value; every reasoning step's point, vector or size matches.
+with the program's value; every reasoning step's point, vector or size matches; the
+wording rules hold (camera moves only between views a person can compare, a named side
+only where it faces the camera, "outside" only of a container that holds something).
 Per shard: the checksum matches the manifest. Nothing is trusted that can be
 recomputed from the record itself.
 """
@@ -20,7 +22,10 @@ import numpy as np
 
 from .annotate import rle_decode
 from .questions.common import SIZE_MEASURES, _size_step
+from .questions.multiview import camera_move_askable
 from .questions.program import ProgramError, count_steps, execute, is_degenerate
+from .questions.refer import holds_anything
+from .questions.sides import SIDE_PREDICATES, side_visible
 from .records import ShardReader, sha256_file
 from .relations import ViewFacts
 from .relations.stored import facts_from_record
@@ -107,7 +112,25 @@ def check_qa(qa: dict, views: dict[str, ViewFacts]) -> list[str]:
         problems.append(f"num_steps {qa['num_steps']} but the program counts {count_steps(program)}")
     problems += _check_answer(qa, values, views)
     problems += _check_trace(qa, views)
+    problems += _check_wording(qa, program, values, views)
     return problems
+
+
+def _check_wording(qa: dict, program: list[dict], values: list, views: dict[str, ViewFacts]) -> list[str]:
+    """The rules the question engine keeps so that a person reads the prompt one way."""
+    out = []
+    if qa["kind"] in ("camera_shift", "camera_turn") and not camera_move_askable(views["other"], views["self"]):
+        out.append("camera move asked between views a person cannot compare")
+    for n in program:
+        if n["op"] not in ("relate", "query") or len(n["inputs"]) != 2:
+            continue
+        view = views[n.get("view", "self")]
+        anchor = view.objects[values[n["inputs"][1]]]  # the side's owner, the container (no side is reversed)
+        if n["predicate"] in SIDE_PREDICATES and not side_visible(view, anchor):
+            out.append(f"names the {anchor.front_side} of object {anchor.object_id}, which does not face the camera")
+        if n["predicate"] == "outside" and not holds_anything(view, anchor):
+            out.append(f"'outside' object {anchor.object_id}, which holds nothing")
+    return out
 
 
 def _same(stored, value) -> bool:
