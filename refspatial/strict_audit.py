@@ -13,12 +13,21 @@ the camera -- and checks every relation a question relied on:
 - bigger/smaller: larger both by enclosed volume and by box volume;
 - taller/shorter, wider/thinner: by at least 1 cm;
 - above/below: directly over or under (the boxes' ground outlines overlap, one's bottom not
-  below the other's top less 2 cm).
+  below the other's top less 2 cm);
+- between: the subject's box centre lies on the ground segment joining the anchors' centres
+  (not beyond either end, at most a quarter of its length off it), and its mask centroid lies
+  between theirs in the image likewise;
+
+and, beside the relations, what a person checks in the picture:
+- a free spot keeps 2 % of the image width clear of every object's pixels (the platform it
+  lies on aside: the object under the point, if any);
+- a colour word names every object it picks out truly: the mean colour of each one's pixels
+  reads as that word (``refspatial.colour_words``).
 
     python -m refspatial.strict_audit DATASET_DIR [DATASET_DIR ...]
 
-prints how many relations each predicate was checked on and every violation, and exits 1 when
-there is any.
+prints how many times each relation and picture check was made and every violation, and exits
+1 when there is any.
 """
 
 from __future__ import annotations
@@ -29,12 +38,17 @@ from pathlib import Path
 
 import numpy as np
 
+from .colour import srgb_to_lab
+from .colour_words import reads_as
 from .records import ShardReader
 from .scene import quat_to_matrix
 from .stats import load_manifest
 
 TOLERANCE_M = 0.01  # box extents and heights must differ by this much to count as ordered
 STACK_SLACK_M = 0.02  # "over" allows this much interpenetration of resting boxes
+BETWEEN_OFF = 0.25  # share of the anchors' distance the subject may lie off the line joining them
+CLEAR_SHARE = 0.02  # share of the image width a free spot keeps from every object
+ROUNDING_PX = 1.0  # answer points are stored to 3 decimals: they may move this far
 
 
 class Box:
@@ -72,8 +86,9 @@ class View:
         self.R, self.t = T[:3, :3], T[:3, 3]
         self.right = _ground(self.R[:, 0])
         self.forward = _ground(self.R[:, 2])
-        self.depth, self.seg = sample["depth_m"], sample["seg"]
+        self.depth, self.seg, self.rgb = sample["depth_m"], sample["seg"], sample["rgb"]
         self._surface: dict[int, float] = {}
+        self._centroid: dict[int, np.ndarray | None] = {}
 
     def stacked(self, a: Box, b: Box) -> bool:
         return a.support == b.id or b.support == a.id
@@ -87,6 +102,29 @@ class View:
 
     def centre_depth(self, a: Box) -> float:
         return float((self.R.T @ (a.centre - self.t))[2])
+
+    def mean_lab(self, oid: int) -> np.ndarray | None:
+        """CIE Lab of the mean colour of the object's pixels, None when it shows none."""
+        pixels = self.rgb[self.seg == oid]
+        return srgb_to_lab(pixels.mean(axis=0) / 255.0) if len(pixels) else None
+
+    def clearance_px(self, point) -> float:
+        """Distance in pixels from a normalised image point to the nearest pixel of an object,
+        the one under the point aside (the platform a free spot lies on)."""
+        h, w = self.seg.shape
+        col, row = min(int(point[0] * w), w - 1), min(int(point[1] * h), h - 1)
+        platform = self.seg[row, col]
+        rows, cols = np.nonzero((self.seg >= 0) & (self.seg != platform))
+        if not rows.size:
+            return float("inf")
+        return float(np.sqrt(((cols + 0.5 - point[0] * w) ** 2 + (rows + 0.5 - point[1] * h) ** 2).min()))
+
+    def centroid(self, a: Box) -> np.ndarray | None:
+        """(column, row) of the object's mask centroid, None when it shows no pixel."""
+        if a.id not in self._centroid:
+            rows, cols = np.nonzero(self.seg == a.id)
+            self._centroid[a.id] = np.array([cols.mean(), rows.mean()]) if rows.size else None
+        return self._centroid[a.id]
 
 
 def _ground(v: np.ndarray) -> np.ndarray:
@@ -110,6 +148,24 @@ def _apart(a: Box, b: Box, axis: np.ndarray) -> bool:
 def _over(a: Box, b: Box) -> bool:
     """Directly over: the ground outlines meet along x and y, and a's bottom is not below b's top."""
     return not (_apart(a, b, X) or _apart(a, b, Y)) and a.span(Z)[0] >= b.span(Z)[1] - STACK_SLACK_M
+
+
+def _on_segment(p: np.ndarray, q: np.ndarray, r: np.ndarray, ends: float) -> bool:
+    """p lies along q->r (ends..1-ends of the way) at most BETWEEN_OFF of its length off it."""
+    seg, rel = r - q, p - q
+    length = float(np.linalg.norm(seg))
+    if length == 0:
+        return False
+    t = float(rel @ seg) / length**2
+    off = abs(float(seg[0] * rel[1] - seg[1] * rel[0])) / length
+    return ends <= t <= 1 - ends and off <= BETWEEN_OFF * length
+
+
+def _between(v: View, a: Box, b: Box, c: Box) -> bool:
+    if not _on_segment(a.centre[:2], b.centre[:2], c.centre[:2], 0.0):
+        return False
+    pa, pb, pc = (v.centroid(o) for o in (a, b, c))
+    return pa is not None and pb is not None and pc is not None and _on_segment(pa, pb, pc, 0.05)
 
 
 def _height(a: Box) -> float:
@@ -157,21 +213,45 @@ def asked(qa: dict) -> list[tuple[str, int, int, bool]]:
 
 
 def audit(*roots: Path) -> tuple[Counter, list[str]]:
-    """Relations checked per predicate, and one line per violation."""
+    """Relations and picture checks made per kind, and one line per violation."""
     checked: Counter = Counter()
     violations = []
     for root in roots:
         for shard in load_manifest(Path(root))["shards"]:
-            for sample in ShardReader(Path(root) / shard["file"]).iter(fields=("depth", "seg")):
+            for sample in ShardReader(Path(root) / shard["file"]).iter(fields=("rgb", "depth", "seg")):
                 view = View(sample)
                 for qa in sample["qa"]:
-                    for p, a, b, said in asked(qa):
-                        checked[p] += 1
-                        holds = STRICT[p](view, view.boxes[a], view.boxes[b])
-                        # A "no" must hold strictly too: the converse reading, with the objects swapped.
-                        if said and not holds or not said and not _strict_no(p, view, view.boxes[a], view.boxes[b]):
-                            violations.append(f"{qa['qa_id']}: {p}({a}, {b}) said {said}: {qa['prompt']}")
+                    for kind, problem in _audit_qa(view, qa):
+                        checked[kind] += 1
+                        if problem:
+                            violations.append(f"{qa['qa_id']}: {problem}: {qa['prompt']}")
     return checked, violations
+
+
+def _audit_qa(view: View, qa: dict):
+    """(what was checked, the problem or None) for every check one QA calls for."""
+    boxes = view.boxes
+    for p, a, b, said in asked(qa):
+        holds = STRICT[p](view, boxes[a], boxes[b])
+        # A "no" must hold strictly too: the converse reading, with the objects swapped.
+        ok = holds if said else _strict_no(p, view, boxes[a], boxes[b])
+        yield p, None if ok else f"{p}({a}, {b}) said {said}"
+    steps = [n for n in qa["steps"] if n.get("view", "self") == "self"]
+    for n in steps:
+        if n["op"] == "relate" and n.get("predicate") == "between":
+            b, c = (qa["steps"][i]["result"] for i in n["inputs"][1:])
+            for a in n["result"]:
+                yield "between", None if _between(view, boxes[a], boxes[b], boxes[c]) else f"between({a}, {b}, {c})"
+        if n["op"] == "filter" and n.get("color"):
+            for o in n["result"]:
+                lab = view.mean_lab(o)
+                if lab is not None:
+                    yield "colour word", None if reads_as(lab, n["color"]) else f"object {o} does not look {n['color']}"
+    if qa["family"] == "placement" and qa["kind"] == "point":
+        for point in qa["answer_points"]:
+            room = view.clearance_px(point)
+            need = CLEAR_SHARE * view.seg.shape[1] - ROUNDING_PX
+            yield "free spot clearance", None if room >= need else f"free spot {point} only {room:.1f} px from an object"
 
 
 CONVERSE = {"left_of": "right_of", "right_of": "left_of", "in_front_of": "behind", "behind": "in_front_of",
@@ -197,10 +277,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     checked, violations = audit(*roots)
     for p, n in sorted(checked.items()):
-        print(f"{p:<18} {n:>7} relations checked")
+        print(f"{p:<20} {n:>7} checked")
     for line in violations:
         print(f"violation: {line}")
-    print(f"{sum(checked.values())} relations checked, {len(violations)} violations")
+    print(f"{sum(checked.values())} checks, {len(violations)} violations")
     return 1 if violations else 0
 
 

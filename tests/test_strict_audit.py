@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refspatial.strict_audit import STRICT, View, _strict_no, asked, audit
+from refspatial.strict_audit import STRICT, View, _audit_qa, _strict_no, asked, audit
 
 # An OpenCV camera looking along world +y from 1 m back: image right is world +x.
 R_CAM = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
@@ -24,8 +24,9 @@ def _sample(objects: list[dict], qa_steps: list[dict]) -> dict:
     for k, o in enumerate(objects):  # a patch per object, at its distance from the camera
         seg[5:15, 5 + 15 * k: 15 + 15 * k] = o["id"]
         depth[5:15, 5 + 15 * k: 15 + 15 * k] = o["box_world"]["center_m"][1] + 1.0
-    qa = {"qa_id": "t#0", "prompt": "p", "steps": qa_steps}
-    return {"scene": {"objects": objects}, "T_world_cam": T, "depth_m": depth, "seg": seg, "qa": [qa]}
+    qa = {"qa_id": "t#0", "prompt": "p", "steps": qa_steps, "family": "spatial", "kind": "point"}
+    rgb = np.zeros((40, 60, 3), np.uint8)
+    return {"scene": {"objects": objects}, "T_world_cam": T, "depth_m": depth, "seg": seg, "rgb": rgb, "qa": [qa]}
 
 
 def _relate(predicate: str, kept: list[int], anchor: int) -> list[dict]:
@@ -73,6 +74,46 @@ def test_a_no_must_hold_strictly_too():
     assert not _strict_no(p, view, view.boxes[a], view.boxes[b])
     clear = View(_sample([_obj(0, 0.3, 0.0, 0.1, 0.1), _obj(1, 0.0, 0.2, 0.1, 0.1)], steps))
     assert _strict_no(p, clear, clear.boxes[0], clear.boxes[1])  # A wholly right of B: a fair "no"
+
+
+def _problems(sample: dict) -> list[str]:
+    return [problem for _, problem in _audit_qa(View(sample), sample["qa"][0]) if problem]
+
+
+def test_a_free_spot_hard_by_an_object_in_the_picture_is_disputed():
+    """In a 600 px wide picture a spot keeps 12 px (2 %) clear of every object, less a pixel for
+    the stored rounding; the platform under the spot (here the object 1 it lies on) aside."""
+    sample = _sample([_obj(0, 0.0, 0.0, 0.1, 0.1), _obj(1, 0.0, 0.0, 0.4, 0.02)], [])
+    sample["seg"] = np.full((400, 600), -1, np.int32)
+    sample["seg"][250:400, :] = 1  # a tray the spots lie on
+    sample["seg"][150:300, 50:150] = 0  # a box standing on it
+    sample["qa"][0].update(family="placement", answer_points=[[175.5 / 600, 280.5 / 400]])
+    assert _problems(sample) == []
+    sample["qa"][0]["answer_points"] = [[155.5 / 600, 280.5 / 400], [400 / 600, 300 / 400]]
+    assert len(_problems(sample)) == 1
+
+
+def test_a_colour_word_must_match_the_pixels():
+    """A "white" object whose pixels render dark gray is not white to a reader; a light one is."""
+    sample = _sample([_obj(0, 0.0, 0.0, 0.1, 0.1)], [{"op": "filter", "color": "white", "result": [0]}])
+    sample["rgb"][sample["seg"] == 0] = (60, 60, 62)
+    assert _problems(sample) == ["object 0 does not look white"]
+    sample["rgb"][sample["seg"] == 0] = (140, 135, 122)
+    assert _problems(sample) == []
+
+
+def test_between_needs_the_plan_and_the_picture():
+    """Anchors 40 cm apart along x; a subject on the line between them passes, one 15 cm off it
+    (more than a quarter of their distance) does not."""
+    steps = [{"op": "unique", "result": 1}, {"op": "unique", "result": 2},
+             {"op": "relate", "predicate": "between", "inputs": [99, 0, 1], "result": [0]}]
+    for y, problems in ((0.0, []), (0.15, ["between(0, 1, 2)"])):
+        objs = [_obj(0, 0.0, y, 0.05, 0.05), _obj(1, -0.2, 0.0, 0.1, 0.1), _obj(2, 0.2, 0.0, 0.1, 0.1)]
+        sample = _sample(objs, steps)
+        sample["seg"][:] = -1  # in the picture: left anchor, subject, right anchor along a row
+        for oid, col in ((1, 5), (0, 28), (2, 50)):
+            sample["seg"][18:22, col:col + 4] = oid
+        assert _problems(sample) == problems
 
 
 def test_the_generators_own_data_has_no_violation(tiny_dataset):
