@@ -174,3 +174,33 @@ def test_visual_choice_marks_are_frames_when_the_description_names_a_box():
         assert marks == ({"frame"} if "box" in q["ref"] else {"box"}), q["prompt"]
         # "Which box holds the box?" never: the mark noun and the object's name differ.
         assert not ("box" in q["ref"] and re.search(r"\bbox(es)?\b", q["prompt"].replace(q["ref"], ""))), q["prompt"]
+
+
+def test_verify_rechecks_the_wording_rules_from_the_record():
+    """A stored QA that names a side turned away from the camera, says 'outside' an empty bowl,
+    or asks a camera turn between views 170 degrees apart fails verify, not only generation."""
+    from helpers import T as CAMERA, obj, view
+
+    from refspatial.scene import Cavity
+    from refspatial.verify import _check_wording
+
+    away = dataclasses.replace(obj(0, "mug", "red", 0.0, 0.2, front=(0.0, 1.0, 0.0)), front_side="handle")
+    facing = dataclasses.replace(obj(1, "mug", "blue", 0.3, 0.2, front=(0.0, -1.0, 0.0)), front_side="handle")
+    bowl = obj(2, "bowl", "white", -0.3, 0.2, size=0.16, height=0.07,
+               cavity=Cavity("cylinder", (0.07, 0.07), 0.01, 0.07))
+    v = view(away, facing, bowl)
+    relate = {"op": "relate", "inputs": [0, 1], "predicate": "on_back_side", "reverse": False}
+    program, values = [{"op": "scene"}, {"op": "unique"}, relate], [[0, 1, 2], 0, []]
+    assert _check_wording({"kind": "point"}, program, values, {"self": v}) == [
+        "names the handle of object 0, which does not face the camera"]
+    assert _check_wording({"kind": "point"}, program, [[0, 1, 2], 1, []], {"self": v}) == []
+    outside = [{"op": "scene"}, {"op": "unique"}, {**relate, "predicate": "outside"}]
+    assert _check_wording({"kind": "point"}, outside, [[0, 1, 2], 2, []], {"self": v}) == [
+        "'outside' object 2, which holds nothing"]
+
+    turned = CAMERA.copy()
+    c, s = np.cos(np.radians(170)), np.sin(np.radians(170))
+    turned[:3, :] = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) @ CAMERA[:3, :]
+    views = {"self": v, "other": view(away, facing, bowl, T_world_cam=turned)}
+    assert _check_wording({"kind": "camera_turn"}, [], [], views) == [
+        "camera move asked between views a person cannot compare"]
