@@ -28,13 +28,14 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--scenes", type=_nonnegative, required=True, help="number of scenes to generate")
     g.add_argument("--recipe", default="tabletop", help="recipe name in recipes/ or a .yaml path (default: tabletop)")
     g.add_argument("--out", type=Path, default=Path("data"), help="output folder (default: ./data)")
-    g.add_argument("--seed", type=int, default=0, help="base seed; scene i uses a seed hashed from (seed, i)")
+    g.add_argument("--seed", type=int, default=0,
+                   help="base seed; scene i uses a seed hashed from (seed, i) (default: 0)")
     g.add_argument("--workers", type=_positive,
                    default=len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1,
                    help="worker processes, or CPUs of a local Ray instance (default: all cores)")
     g.add_argument("--scenes-per-shard", type=_positive, default=25, help="scenes per MCAP shard (default: 25)")
     g.add_argument("--executor", choices=("local", "ray"), default="local",
-                   help="local worker processes (default), or Ray tasks (pip install 'refspatial[ray]')")
+                   help="local worker processes (default), or Ray tasks (pip install -e '.[ray]' in the checkout)")
     g.add_argument("--address", help="Ray cluster to join, e.g. head-node:6379 (default: $RAY_ADDRESS, "
                    "else a Ray instance started for this run)")
     g.add_argument("--gpus-per-task", type=float, default=0.0,
@@ -54,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write a self-contained HTML audit report (plots, balance warnings) to this .html path")
 
     c = sub.add_parser("scene", help="write one composed, settled scene as MJCF (meshes beside it)")
-    c.add_argument("--recipe", default="tabletop")
+    c.add_argument("--recipe", default="tabletop", help="recipe name in recipes/ or a .yaml path (default: tabletop)")
     c.add_argument("--seed", type=int, required=True, help="the scene seed (a record's scene.seed)")
     c.add_argument("--mjcf", type=Path, required=True, help="output .xml path")
     _library_args(c)
@@ -67,8 +68,8 @@ def build_parser() -> argparse.ArgumentParser:
     ai.add_argument("--workers", type=_positive, default=1, help="import processes (default: 1)")
 
     v = sub.add_parser("verify", help="re-execute every stored program and check every answer and checksum")
-    v.add_argument("dir", type=Path)
-    v.add_argument("--max-failures", type=int, default=50, help="failures to list (all are counted)")
+    v.add_argument("dir", type=Path, help="dataset folder (holds manifest.json)")
+    v.add_argument("--max-failures", type=int, default=50, help="failures to list; all are counted (default: 50)")
 
     from .export import add_cli as add_export_cli
     from .show import add_cli as add_show_cli
@@ -76,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_export_cli(sub)
     add_show_cli(sub)
 
-    sub.add_parser("recipes", help="list the recipes shipped in recipes/")
+    sub.add_parser("recipes", help="list the recipes shipped in recipes/, each with its description")
     return parser
 
 
@@ -234,9 +235,17 @@ def _assets(args: argparse.Namespace) -> int:
 
 
 def _recipes(args: argparse.Namespace) -> int:
-    from .recipe import available
+    """Each recipe with the description its own file gives (not one inherited through
+    ``extends``, which would describe the parent); loading checks every recipe too."""
+    import yaml
 
-    print("\n".join(available()))
+    from .recipe import available, load_recipe
+
+    names = available()
+    width = max(map(len, names), default=0)
+    for name in names:
+        own = yaml.safe_load(load_recipe(name).text) or {}
+        print(f"{name:<{width}}  {own.get('description') or '(no description)'}")
     return 0
 
 

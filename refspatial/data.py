@@ -1,10 +1,14 @@
 """The loader trainers import: a dataset folder of MCAP shards as a stream of sample dicts.
 
 The unit of splitting is the record, not the shard: the global list of (shard, index) pairs,
-in manifest order, is optionally shuffled with ``default_rng(seed + epoch)`` and then cut into
-contiguous near-equal blocks, first by rank and then by DataLoader worker. Every process
-computes the same list, so the blocks never overlap and never miss a record, however uneven
-the shards are. Works without torch; with torch the class is an ``IterableDataset``.
+in manifest order, is optionally shuffled with ``default_rng(seed + epoch)``, evened out to a
+multiple of the world size (as torch's ``DistributedSampler`` does: the first records repeated
+at the end, or with ``drop_last`` the last few dropped) and then cut into contiguous blocks,
+first by rank and then by DataLoader worker. Every rank gets the same number of samples, so no
+rank waits at a collective for another that has run out; every process computes the same list,
+so the blocks never overlap beyond that padding and never miss a record (without
+``drop_last``), however uneven the shards are. Works without torch; with torch the class is an
+``IterableDataset`` and ``collate`` returns tensors.
 """
 
 from __future__ import annotations
@@ -19,9 +23,11 @@ import numpy as np
 from refspatial.records import FIELDS, ShardError, ShardReader, sha256_file
 
 try:  # optional: with torch, DataLoader treats the dataset as iterable and splits by worker
+    import torch as _torch
     from torch.utils.data import IterableDataset as _Base
     from torch.utils.data import get_worker_info as _get_worker_info
 except ImportError:
+    _torch = None  # type: ignore[assignment]
     _Base = object  # type: ignore[assignment,misc]
     _get_worker_info = None
 
@@ -43,8 +49,12 @@ class RefSpatialDataset(_Base):  # type: ignore[misc,valid-type]
     """Sample dicts (see ``ShardReader.read``) plus ``objects`` = ``scene["objects"]``.
 
     ``__len__`` and ``__getitem__`` cover this rank's records in manifest order; iteration
-    covers the same records, shuffled when asked, and split further by DataLoader worker.
-    Call ``set_epoch`` before each epoch (with non-persistent workers, which re-read it).
+    covers the same number of records, shuffled when asked, and split further by DataLoader
+    worker. Every rank holds ``ceil(records / world_size)`` samples, the first records of the
+    (shuffled) list served twice to fill the last ranks, or with ``drop_last``
+    ``floor(records / world_size)``, the last records of the list left out (a different few
+    each epoch when shuffled). Call ``set_epoch`` before each epoch (with non-persistent
+    workers, which re-read it).
     """
 
     def __init__(
@@ -56,6 +66,7 @@ class RefSpatialDataset(_Base):  # type: ignore[misc,valid-type]
         rank: int = 0,
         world_size: int = 1,
         verify: bool = False,
+        drop_last: bool = False,
     ) -> None:
         if isinstance(fields, str) or not set(fields) <= set(FIELDS):
             raise ValueError(f"fields must be a subset of {FIELDS}; got {fields!r}")
@@ -64,13 +75,16 @@ class RefSpatialDataset(_Base):  # type: ignore[misc,valid-type]
         self.root = Path(root)
         self.fields = tuple(fields)
         self.shuffle, self.seed, self.epoch = shuffle, seed, 0
-        self.rank, self.world_size = rank, world_size
+        self.rank, self.world_size, self.drop_last = rank, world_size, drop_last
         self.shards = load_manifest(self.root, verify=verify)
         counts = np.array([s.records for s in self.shards], dtype=np.int64)
         # Global record list: row j = (shard number, index in shard), in manifest order.
         shard = np.repeat(np.arange(len(counts), dtype=np.int64), counts)
         index = np.arange(len(shard), dtype=np.int64) - (np.cumsum(counts) - counts)[shard]
         self._pairs = np.stack([shard, index], axis=1)
+        if world_size > len(self._pairs):
+            raise ValueError(f"world_size {world_size} is larger than the {len(self._pairs)} records in "
+                             f"{self.root}; use at most {len(self._pairs)} ranks or generate more scenes")
         self._readers: dict[int, ShardReader] = {}
 
     def set_epoch(self, epoch: int) -> None:
@@ -78,20 +92,31 @@ class RefSpatialDataset(_Base):  # type: ignore[misc,valid-type]
         self.epoch = epoch
 
     def __len__(self) -> int:
-        return len(_block(np.arange(len(self._pairs)), self.rank, self.world_size))
+        return self._per_rank()
 
     def __getitem__(self, i: int) -> dict:
         """The i-th record of this rank's unshuffled list."""
-        mine = _block(np.arange(len(self._pairs)), self.rank, self.world_size)
+        mine = self._rank_block(np.arange(len(self._pairs)))
         if not 0 <= i < len(mine):
             raise IndexError(f"index {i} out of range; rank {self.rank} holds {len(mine)} records")
         return self._sample(int(mine[i]))
 
     def __iter__(self) -> Iterator[dict]:
         worker, n_workers = _worker()
-        mine = _block(_block(self._order(), self.rank, self.world_size), worker, n_workers)
+        mine = _block(self._rank_block(self._order()), worker, n_workers)
         for j in mine:
             yield self._sample(int(j))
+
+    def _per_rank(self) -> int:
+        n, w = len(self._pairs), self.world_size
+        return n // w if self.drop_last else -(-n // w)
+
+    def _rank_block(self, order: np.ndarray) -> np.ndarray:
+        """This rank's contiguous block of ``order`` evened out to ``world_size`` equal blocks."""
+        per_rank = self._per_rank()
+        total = per_rank * self.world_size
+        evened = np.resize(order, total)  # repeats from the start when total > len(order)
+        return evened[self.rank * per_rank : (self.rank + 1) * per_rank]
 
     def _order(self) -> np.ndarray:
         """Positions into the global list; identical in every process for (seed, epoch)."""
@@ -174,8 +199,10 @@ def _verify_sha(manifest: Path, e: ShardEntry) -> None:
 
 
 def collate(samples: list[dict]) -> dict:
-    """Batch sample dicts: arrays (numpy or torch) are stacked, everything else
-    (keys, qa, objects, relations, answer points ...) stays a list, one item per sample."""
+    """Batch sample dicts: arrays (numpy or torch) are stacked into one torch tensor when torch
+    is installed (dtypes kept: rgb uint8, depth_m float32, seg int32, K and T_world_cam float64),
+    else into one numpy array; everything else (keys, qa, objects, relations, answer points ...)
+    stays a list, one item per sample."""
     if not samples:
         raise ValueError("collate needs at least one sample")
     keys = list(samples[0])
@@ -196,7 +223,6 @@ def _stack(name: str, values: list) -> Any:
         raise ValueError(f"cannot stack {name!r}: shapes {sorted(shapes)} differ; resize in a "
                          "transform or batch views of one resolution together")
     if is_torch:
-        import torch
-
-        return torch.stack(values)
-    return np.stack(values)
+        return _torch.stack(values)
+    stacked = np.stack(values)
+    return stacked if _torch is None else _torch.from_numpy(stacked)

@@ -26,7 +26,7 @@ from typing import Any, Callable, Iterator, Protocol, Sequence
 from .shards import OnScene, RunError, SceneTick, ShardJob, one_line, run_shard
 
 ShardFn = Callable[[ShardJob, "OnScene | None"], dict]
-RAY_EXTRA = "pip install 'refspatial[ray]'"
+RAY_EXTRA = "pip install -e '.[ray]' in the refspatial checkout"
 
 
 @dataclass(frozen=True)

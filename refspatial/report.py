@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from .stats import PREDICATE_SHARE_MAX, REGION_SHARE_MAX, answer_threshold, predicate_families
+from .stats import NO_WARNINGS, PREDICATE_SHARE_MAX, REGION_SHARE_MAX, answer_threshold, predicate_families
 
 DPI = 100
 STYLE = {"font.size": 9, "axes.titlesize": 10, "axes.spines.top": False, "axes.spines.right": False,
@@ -75,14 +75,16 @@ def _summary(stats: dict, manifest: dict) -> str:
 
 def _balance(stats: dict) -> str:
     warnings = stats.get("warnings", [])
-    items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings) or "<li>none</li>"
+    # A red "none" read as an alarm; the all-clear is a plain sentence in the page's "ok" colour.
+    items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings)
+    listing = f"<ul class=warnings>{items}</ul>" if warnings else f"<p class=ok>{NO_WARNINGS}</p>"
     rows = "".join(
         f"<tr class={b['verdict'].replace(' ', '-')}><td>{html.escape(b['check'])}</td>"
         f"<td>{html.escape(str(b['item']))}</td><td>{b['count']} / {b['total']}</td>"
         f"<td>{b['share']:.1%}</td><td>{b['lower']:.1%} - {b['upper']:.1%}</td><td>{b['threshold']:.0%}</td>"
         f"<td>{html.escape(b['verdict'])}</td></tr>" for b in stats.get("balance", []))
     return ("<h2>Balance warnings</h2>\n"
-            f"<ul class=warnings>{items}</ul>\n<table><tr><th>check</th><th>item</th><th>count</th>"
+            f"{listing}\n<table><tr><th>check</th><th>item</th><th>count</th>"
             "<th>share</th><th>95% interval</th><th>threshold</th><th>verdict</th></tr>"
             f"{rows}</table>\n<p class=note>A dominance check (the most common predicate, answer or image "
             "cell) warns when the interval's lower end is above its threshold; the step check (the step "
@@ -316,7 +318,7 @@ table {{ border-collapse: collapse; font-size: 12px; margin: 0 1em 1em 0; vertic
 td, th {{ border: 1px solid #ccc; padding: 2px 6px; text-align: left; }}
 caption {{ font-weight: bold; text-align: left; }}
 .tables {{ display: flex; flex-wrap: wrap; align-items: flex-start; }}
-.warnings li {{ color: #c0392b; }} tr.warn td {{ background: #f8d7d3; }} tr.watch td {{ background: #fcf0cf; }}
+.warnings li {{ color: #c0392b; }} .ok {{ color: #1e7b34; }} tr.warn td {{ background: #f8d7d3; }} tr.watch td {{ background: #fcf0cf; }}
 .note {{ font-size: 12px; color: #555; }}
 </style></head>
 <body><h1>{title}</h1>

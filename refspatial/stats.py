@@ -51,6 +51,8 @@ STEP_SHARE_MIN_RATIO = 0.5
 # 0.5 % of a single recipe's (some predicates are rare in one family: inside on a bare shelf).
 PREDICATE_FLOOR_MIXED = 0.01
 PREDICATE_FLOOR_SINGLE = 0.005
+# The all-clear, printed last so a run that ends quietly reads as checked, not as cut short.
+NO_WARNINGS = "no balance warning fired"
 # A check fires only beyond sampling noise: the 95 % Wilson interval of the share must lie
 # wholly past the threshold (its lower end above a dominance threshold, its upper end below a
 # shortfall one). A 12-scene smoke run holds ~40 choice answers, where 63 % for one letter is
@@ -360,5 +362,5 @@ def format_text(stats: dict) -> str:
         lines.extend(f"  {k:<24} {v:>8}  {v / total:6.1%}" for k, v in counts.items())
     if "images" in stats:
         lines.extend(format_images(stats["images"]))
-    lines.extend(f"warning: {w}" for w in stats.get("warnings", []))
+    lines.extend([f"warning: {w}" for w in stats.get("warnings", [])] or [NO_WARNINGS])
     return "\n".join(lines)

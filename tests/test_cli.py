@@ -24,6 +24,58 @@ def test_help_lists_subcommands():
         assert cmd in r.stdout
 
 
+def _arguments(parser, path=("refspatial",)):
+    """(command path, action) for every argument of every parser, subcommands included."""
+    import argparse
+
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for choice in action._choices_actions:  # the subcommand's line in its parent's help
+                yield path + (choice.dest,), choice
+            for name, sub in action.choices.items():
+                yield from _arguments(sub, path + (name,))
+        elif not isinstance(action, argparse._HelpAction):
+            yield path, action
+
+
+def test_every_argument_has_help_and_states_its_default():
+    from refspatial.cli import build_parser
+
+    missing, no_default = [], []
+    for path, action in _arguments(build_parser()):
+        name = " ".join(path) + " " + ("/".join(action.option_strings) or action.dest)
+        if not (action.help or "").strip():
+            missing.append(name)
+        default = action.default
+        quiet_default = default is None or default is False or default == []
+        if action.option_strings and not action.required and not quiet_default and "default" not in (action.help or ""):
+            no_default.append(f"{name} (default {default!r})")
+    assert not missing, f"arguments without help: {missing}"
+    assert not no_default, f"help that hides the default: {no_default}"
+
+
+def test_recipes_lists_each_with_its_own_description(tmp_path, monkeypatch, capsys):
+    import yaml
+
+    import refspatial.recipe as recipe_module
+    from refspatial.paths import recipes_dir
+
+    shipped = recipes_dir()
+    assert main(["recipes"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    names = sorted(p.stem for p in shipped.glob("*.yaml"))
+    assert [line.split()[0] for line in lines] == names
+    for name, line in zip(names, lines):
+        description = yaml.safe_load((shipped / f"{name}.yaml").read_text())["description"]
+        assert line.endswith("  " + description)
+    # A recipe without a description of its own does not borrow the one it extends.
+    (tmp_path / "tabletop.yaml").write_text((shipped / "tabletop.yaml").read_text())
+    (tmp_path / "plain.yaml").write_text("extends: tabletop\nname: plain\n")
+    monkeypatch.setattr(recipe_module, "recipes_dir", lambda: tmp_path)
+    assert main(["recipes"]) == 0
+    assert capsys.readouterr().out.splitlines()[0].split() == ["plain", "(no", "description)"]
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [

@@ -84,15 +84,51 @@ def _split_keys(root: Path, world_size: int, workers: int = 1, **kw) -> list[lis
     return parts
 
 
-@pytest.mark.parametrize("world_size", [1, 2, 3, 7, 13])
+@pytest.mark.parametrize("world_size", [1, 2, 3, 5, 7, 12])
 @pytest.mark.parametrize("workers", [1, 2, 3])
 @pytest.mark.parametrize("shuffle", [False, True])
-def test_ranks_and_workers_partition_the_records(dataset, world_size, workers, shuffle):
+def test_ranks_and_workers_cover_the_records(dataset, world_size, workers, shuffle):
+    """Every rank gets ceil(n / world_size) samples: all records, the first few twice."""
     root, keys = dataset
     parts = _split_keys(root, world_size, workers, shuffle=shuffle, seed=3)
+    per_rank = [sum(map(len, parts[r * workers : (r + 1) * workers])) for r in range(world_size)]
+    assert per_rank == [-(-len(keys) // world_size)] * world_size
     seen = [k for p in parts for k in p]
-    assert sorted(seen) == sorted(keys)  # nothing lost, nothing twice
-    assert max(map(len, parts)) - min(map(len, parts)) <= 2
+    assert set(seen) == set(keys)  # nothing lost
+    assert len(seen) - len(set(seen)) == sum(per_rank) - len(keys)  # only the padding twice
+    assert max(map(len, parts)) - min(map(len, parts)) <= 1
+
+
+@pytest.mark.parametrize("world_size", [1, 5, 7, 12])
+@pytest.mark.parametrize("shuffle", [False, True])
+def test_drop_last_leaves_out_the_remainder(dataset, world_size, shuffle):
+    root, keys = dataset
+    parts = _split_keys(root, world_size, 2, shuffle=shuffle, seed=3, drop_last=True)
+    per_rank = [len(parts[2 * r]) + len(parts[2 * r + 1]) for r in range(world_size)]
+    assert per_rank == [len(keys) // world_size] * world_size
+    seen = [k for p in parts for k in p]
+    assert len(seen) == len(set(seen)) and set(seen) <= set(keys)
+
+
+def test_ranks_yield_equal_batch_counts_in_a_dataloader(dataset):
+    """Equal batch counts are what keeps distributed training from hanging at the last step."""
+    pytest.importorskip("torch")
+    from torch.utils.data import DataLoader
+
+    root, _ = dataset
+    for drop_last in (False, True):
+        batches = []
+        for rank in range(5):  # 12 records over 5 ranks: 3 each (padded) or 2 each (dropped)
+            ds = RefSpatialDataset(root, fields=(), rank=rank, world_size=5, drop_last=drop_last)
+            batches.append(len(list(DataLoader(ds, batch_size=2, collate_fn=collate))))
+        assert len(set(batches)) == 1, (drop_last, batches)
+
+
+def test_world_size_larger_than_the_dataset_is_an_error(dataset):
+    root, keys = dataset
+    with pytest.raises(ValueError, match=rf"world_size 13 is larger than the {len(keys)} records in .*; "
+                                         rf"use at most {len(keys)} ranks"):
+        RefSpatialDataset(root, rank=0, world_size=13)
 
 
 def test_getitem_is_this_ranks_unshuffled_list(dataset):
@@ -129,13 +165,17 @@ def test_fields_selection(dataset):
         RefSpatialDataset(root, rank=2, world_size=2)
 
 
-def test_collate_stacks_arrays_and_lists_the_rest(dataset):
+def test_collate_stacks_arrays_into_tensors_and_lists_the_rest(dataset):
+    torch = pytest.importorskip("torch")
     root, _ = dataset
     samples = list(RefSpatialDataset(root))[:4]
     batch = collate(samples)
-    assert batch["rgb"].shape == (4, 12, 16, 3) and batch["rgb"].dtype == np.uint8
-    assert batch["depth_m"].shape == (4, 12, 16) and batch["seg"].shape == (4, 12, 16)
+    assert all(isinstance(batch[k], torch.Tensor) for k in ("rgb", "depth_m", "seg", "K", "T_world_cam"))
+    assert batch["rgb"].shape == (4, 12, 16, 3) and batch["rgb"].dtype == torch.uint8
+    assert batch["depth_m"].shape == (4, 12, 16) and batch["depth_m"].dtype == torch.float32
+    assert batch["seg"].shape == (4, 12, 16) and batch["seg"].dtype == torch.int32
     assert batch["K"].shape == (4, 3, 3) and batch["T_world_cam"].shape == (4, 4, 4)
+    assert np.array_equal(batch["rgb"][2].numpy(), samples[2]["rgb"])
     assert batch["qa"] == [s["qa"] for s in samples] and len(batch["objects"]) == 4
     assert batch["key"] == [s["key"] for s in samples]
     odd = dict(samples[1], rgb=np.zeros((2, 2, 3), np.uint8))
@@ -185,7 +225,10 @@ def test_imports_and_iterates_without_torch(dataset):
     code = ("import sys; sys.modules['torch'] = None\n"
             "import refspatial.data as d\n"
             "assert d._Base is object\n"
-            f"print(len([s['key'] for s in d.RefSpatialDataset({str(root)!r}, fields=('rgb',))]))")
+            f"samples = list(d.RefSpatialDataset({str(root)!r}, fields=('rgb',)))\n"
+            "batch = d.collate(samples[:3])\n"
+            "assert type(batch['rgb']).__name__ == 'ndarray' and batch['rgb'].shape[0] == 3\n"
+            "print(len(samples))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=Path(__file__).parents[1], check=True)
     assert out.stdout.strip() == str(len(keys))
@@ -208,6 +251,6 @@ def test_torch_dataloader_workers(dataset):
     loader = DataLoader(RefSpatialDataset(root), batch_size=4, num_workers=2, collate_fn=collate)
     batches = list(loader)
     assert sum(len(b["key"]) for b in batches) == len(keys)
-    assert batches[0]["rgb"].shape == (4, 12, 16, 3)
+    assert batches[0]["rgb"].shape == (4, 12, 16, 3) and isinstance(batches[0]["rgb"], torch.Tensor)
     tensors = [{"rgb": torch.zeros(2, 3), "qa": []}, {"rgb": torch.ones(2, 3), "qa": [1]}]
     assert collate(tensors)["rgb"].shape == (2, 2, 3)

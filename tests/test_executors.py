@@ -176,7 +176,7 @@ def env_probe(job: ShardJob, on_scene) -> dict:
 
 
 def test_ray_writes_the_same_bytes_as_the_local_executor(tiny, catalogue, tmp_path, monkeypatch):
-    ray = pytest.importorskip("ray", reason="the ray extra is not installed: pip install 'refspatial[ray]'")
+    ray = pytest.importorskip("ray", reason="the ray extra is not installed: pip install -e '.[ray]'")
     monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
     monkeypatch.delenv("RAY_ADDRESS", raising=False)
     generate(tmp_path / "local", tiny, catalogue, n_scenes=4, base_seed=3, workers=1, scenes_per_shard=2)

@@ -201,11 +201,28 @@ def test_warnings_reach_the_page(stats, dataset):
 
 
 def test_page_shows_the_datasets_own_warnings(page, stats):
-    items = re.search(r"<ul class=warnings>(.*?)</ul>", page, re.S).group(1)
+    section = page[page.index("<h2>Balance warnings</h2>"):page.index("<table>", page.index("<h2>Balance warnings</h2>"))]
     if stats["warnings"]:
-        assert items.count("<li>") == len(stats["warnings"])
+        assert section.count("<li>") == len(stats["warnings"])
     else:
-        assert items == "<li>none</li>"
+        assert "<p class=ok>no balance warning fired</p>" in section
+
+
+def test_no_warnings_is_said_plainly_not_in_the_warning_red(stats, dataset):
+    """The all-clear is outside the red ``warnings`` list, in the report and in the text."""
+    from refspatial.stats import format_text
+
+    calm = {**stats, "warnings": []}
+    page = render_html(calm, load_manifest(dataset))
+    start = page.index("<h2>Balance warnings</h2>")
+    section = page[start:page.index("<table>", start)]
+    assert "class=warnings" not in section and "<li>" not in section
+    assert re.search(r"<p class=ok>no balance warning fired</p>", section)
+    ok_colour = re.search(r"\.ok \{ color: (#[0-9a-f]+); \}", page).group(1)
+    assert ok_colour != re.search(r"\.warnings li \{ color: (#[0-9a-f]+); \}", page).group(1)
+    assert format_text(calm).splitlines()[-1] == "no balance warning fired"
+    warned = format_text({**stats, "warnings": ["QA predicates: left_of holds 81%"]}).splitlines()
+    assert warned[-1] == "warning: QA predicates: left_of holds 81%" and "no balance warning fired" not in warned
 
 
 def test_answer_labels_name_one_word_options_only():
