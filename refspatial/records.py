@@ -6,17 +6,17 @@ metadata, and Foxglove opens it as is. Record ``i`` is every message logged at `
 seconds, so the bytes depend on the records only, never on the wall clock. A record is
 written as four chunks (JSON + calibration, rgb, depth, seg): a reader that wants QA only,
 or rgb only, decompresses just those, found through the CRC-checked summary's chunk index.
+
+The topics and their schemas are in ``record_schemas`` (the JSON schemas are files in
+``schemas/``); reading the summary, chunks and CRCs is ``shard_index``'s.
 """
 
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import operator
 import os
-import struct
-import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, BinaryIO, Callable, Iterator, Sequence
@@ -27,16 +27,20 @@ from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
 from google.protobuf.timestamp_pb2 import Timestamp
-from mcap.data_stream import ReadDataStream
-from mcap.opcode import Opcode
-from mcap.records import Channel, Chunk, ChunkIndex, Message, Metadata, MetadataIndex, Statistics
-from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, Writer
-from mcap_protobuf.schema import build_file_descriptor_set
 
 from refspatial import __version__
 
-NS_PER_RECORD = 1_000_000_000  # record i is logged at (i + 1) s
+from .record_schemas import GROUPS as _GROUPS
+from .record_schemas import IMAGE_TOPICS as _IMAGE_TOPICS
+from .record_schemas import JSON_TOPICS as _JSON_TOPICS
+from .record_schemas import register_channels as _register_channels
+from .shard_index import NS_PER_RECORD, ShardIndex
+from .shard_index import chunk_messages as _chunk_messages  # a module name, so tests can count calls
+from .shard_index import read_index as _read_index
+from .shard_index import read_metadata as _read_metadata
+from .shard_index import verify_data_crc as _verify_data_crc
+
 FIELDS = ("rgb", "depth", "seg")  # image fields a reader decodes only on request
 # The RGB PNG: zlib level 3 with no per-row filter. On 960x540 tabletop renders (smooth
 # shading, flat table and sky) libpng's adaptive filters cost 9 of the 14 ms an image took
@@ -44,34 +48,6 @@ FIELDS = ("rgb", "depth", "seg")  # image fields a reader decodes only on reques
 PNG_LEVEL = 3
 PNG_FILTER = cv2.IMWRITE_PNG_FILTER_NONE
 _FIX = "delete it and re-run `refspatial generate` (rewrites missing shards, skips complete ones)"
-_MAGIC = b"\x89MCAP0\r\n"
-_FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
-_JSON_TOPICS = ("/scene", "/relations", "/qa")
-_IMAGE_TOPICS = {"rgb": "/camera/rgb", "depth": "/camera/depth", "seg": "/camera/seg"}
-_GROUPS = ((*_JSON_TOPICS, "/camera/calibration"), *((t,) for t in _IMAGE_TOPICS.values()))
-
-
-def _json_schema(title: str, what: str, lists: tuple[str, ...] = (), **props: dict) -> dict:
-    props = {"key": {"type": "string"}, **props, **{k: {"type": "array"} for k in lists}}
-    return {"title": title, "description": what, "type": "object",
-            "required": list(props), "properties": props}
-
-
-_MATRIX = {"type": "array", "items": {"type": "array", "items": {"type": "number"}}}
-_JSON_SCHEMAS = {
-    "/scene": _json_schema("refspatial.Scene", "Scene description plus the record key, pinhole "
-                           "K (pixels) and T_world_cam (4x4, world <- OpenCV camera: +z forward, "
-                           "+y down, metres)", K=_MATRIX, T_world_cam=_MATRIX),
-    "/relations": _json_schema("refspatial.Relations", "Spatial relations of one record",
-                               ("relations",)),
-    "/qa": _json_schema("refspatial.QA", "Referring questions and answers of one record", ("qa",)),
-}
-_PROTO_TOPICS = {
-    "/camera/calibration": (CameraCalibration, {}),
-    "/camera/rgb": (CompressedImage, {"content": "RGB, lossless PNG"}),
-    "/camera/depth": (RawImage, {"unit": "metre", "value": "distance along the optical axis"}),
-    "/camera/seg": (RawImage, {"value": "object id + 1; 0 = background"}),
-}
 
 
 class ShardError(RuntimeError):
@@ -201,18 +177,6 @@ def _check_metadata(path: Path, metadata: dict[str, dict[str, str]]) -> None:
                                  f"is text); got {type(v).__name__}, convert it with json.dumps")
 
 
-def _register_channels(mcap: Writer) -> dict[str, int]:
-    channels = {}
-    for topic, schema in _JSON_SCHEMAS.items():
-        sid = mcap.register_schema(schema["title"], "jsonschema", _json("schema", schema))
-        channels[topic] = mcap.register_channel(topic, "json", sid)
-    for topic, (cls, meta) in _PROTO_TOPICS.items():
-        fds = build_file_descriptor_set(cls).SerializeToString(deterministic=True)
-        sid = mcap.register_schema(cls.DESCRIPTOR.full_name, "protobuf", fds)
-        channels[topic] = mcap.register_channel(topic, "protobuf", sid, meta)
-    return channels
-
-
 def _encode(r: Record, t: int) -> dict[str, bytes]:
     """Every message of one record, serialised; pure, so failures happen before any write."""
     stamp = Timestamp(seconds=t // NS_PER_RECORD, nanos=t % NS_PER_RECORD)
@@ -270,21 +234,6 @@ def _raw_message(a: np.ndarray, encoding: str, stamp: Timestamp) -> bytes:
     return msg.SerializeToString(deterministic=True)
 
 
-@dataclass(frozen=True, eq=False)
-class _Index:
-    """The summary boiled down to small arrays: a dataset keeps one per shard alive."""
-
-    size: int
-    summary_start: int
-    channels: dict[str, int]  # topic -> channel id
-    n_records: int
-    chunk_record: np.ndarray  # (C,) int64, sorted
-    chunk_offset: np.ndarray  # (C,) int64
-    chunk_length: np.ndarray  # (C,) int64
-    chunk_mask: np.ndarray  # (C,) int64, bit c set when the chunk holds channel c
-    metadata: tuple[tuple[str, int, int], ...]  # (name, offset, length)
-
-
 class ShardReader:
     """Random and streaming access to one shard. Opens the file per call, so it holds no
     descriptor between calls, pickles cheaply and is safe in forked DataLoader workers."""
@@ -294,7 +243,7 @@ class ShardReader:
         if not self.path.is_file():
             raise FileNotFoundError(f"{self.path}: no such shard; check the path or regenerate it")
         with open(self.path, "rb") as f:
-            self._index: _Index = self._guard(lambda: _read_index(f), None)
+            self._index: ShardIndex = self._guard(lambda: _read_index(f), None)
         self._keys: list[str] | None = None
 
     def __len__(self) -> int:
@@ -396,88 +345,6 @@ def _check_fields(fields: Sequence[str]) -> tuple[str, ...]:
     if isinstance(fields, str) or not set(fields) <= set(FIELDS):
         raise ValueError(f"fields must be a subset of {FIELDS}; got {fields!r}")
     return tuple(fields)
-
-
-def _read_index(f: BinaryIO) -> _Index:
-    """Footer, then the summary it points to, checked against the footer's CRC."""
-    size = os.fstat(f.fileno()).st_size
-    if size < 2 * len(_MAGIC) + _FOOTER_LEN:
-        raise ValueError(f"only {size} bytes, too short for a complete MCAP file (truncated?)")
-    head = f.read(len(_MAGIC))
-    f.seek(size - len(_MAGIC) - _FOOTER_LEN)
-    tail = f.read(len(_MAGIC) + _FOOTER_LEN)
-    if head != _MAGIC or tail[-len(_MAGIC):] != _MAGIC:
-        raise ValueError("no MCAP magic at the start or end (truncated or still being written)")
-    opcode, length, start, _, crc = struct.unpack("<BQQQI", tail[:_FOOTER_LEN])
-    if opcode != Opcode.FOOTER or length != _FOOTER_LEN - 9 or not 8 < start < size - _FOOTER_LEN:
-        raise ValueError("bad MCAP footer (truncated or damaged)")
-    f.seek(start)
-    summary = f.read(size - len(_MAGIC) - _FOOTER_LEN - start)
-    if zlib.crc32(tail[:25], zlib.crc32(summary)) != crc:
-        raise ValueError("summary CRC mismatch (damaged index)")
-    stream = StreamReader(io.BytesIO(summary + tail), skip_magic=True, record_size_limit=size)
-    return _index_from_summary(size, start, list(stream.records))
-
-
-def _index_from_summary(size: int, start: int, records: list) -> _Index:
-    channels = {r.topic: r.id for r in records if isinstance(r, Channel)}
-    if set(channels) != set(_JSON_TOPICS) | set(_PROTO_TOPICS):
-        raise ValueError(f"not a refspatial shard: topics {sorted(channels)}")
-    stats = next(r for r in records if isinstance(r, Statistics))
-    counts = [stats.channel_message_counts.get(c, 0) for c in channels.values()]
-    n = counts[0]
-    if any(c != n for c in counts):
-        raise ValueError(f"message counts differ between topics: {counts}")
-    chunks = [r for r in records if isinstance(r, ChunkIndex)]
-    rec = np.array([c.message_start_time // NS_PER_RECORD - 1 for c in chunks], dtype=np.int64)
-    mask = np.array([sum(1 << k for k in c.message_index_offsets) for c in chunks], dtype=np.int64)
-    if len(rec) and (rec.min() < 0 or rec.max() >= n or np.any(np.diff(rec) < 0)):
-        raise ValueError("chunk index times do not match the record count")
-    covered, full = np.zeros(n, dtype=np.int64), sum(1 << c for c in channels.values())
-    np.bitwise_or.at(covered, rec, mask)
-    if np.any(covered != full):
-        raise ValueError(f"record {int(np.argmax(covered != full))} is missing chunks")
-    return _Index(
-        size=size, summary_start=start, channels=channels, n_records=n, chunk_record=rec,
-        chunk_offset=np.array([c.chunk_start_offset for c in chunks], dtype=np.int64),
-        chunk_length=np.array([c.chunk_length for c in chunks], dtype=np.int64), chunk_mask=mask,
-        metadata=tuple((m.name, m.offset, m.length) for m in records
-                       if isinstance(m, MetadataIndex)),
-    )
-
-
-def _record_body(f: BinaryIO, offset: int, length: int, opcode: Opcode) -> ReadDataStream:
-    f.seek(offset)
-    buf = f.read(length)
-    if len(buf) != length or buf[0] != opcode:
-        raise ValueError(f"no {opcode.name} record at byte {offset}")
-    return ReadDataStream(io.BytesIO(buf[9:]))
-
-
-def _chunk_messages(f: BinaryIO, offset: int, length: int) -> list[Message]:
-    chunk = Chunk.read(_record_body(f, offset, length, Opcode.CHUNK))
-    if chunk.compression != "zstd":
-        raise ValueError(f"chunk compression {chunk.compression!r}, expected zstd")
-    return [r for r in breakup_chunk(chunk, validate_crc=True) if isinstance(r, Message)]
-
-
-def _read_metadata(f: BinaryIO, name: str, offset: int, length: int) -> tuple[str, dict]:
-    return name, dict(Metadata.read(_record_body(f, offset, length, Opcode.METADATA)).metadata)
-
-
-def _verify_data_crc(f: BinaryIO, summary_start: int) -> None:
-    data_end = summary_start - 13  # the DataEnd record: opcode, length 4, crc32
-    f.seek(data_end)
-    opcode, length, expected = struct.unpack("<BQI", f.read(13))
-    if opcode != Opcode.DATA_END or length != 4:
-        raise ValueError("no DataEnd record before the summary")
-    f.seek(0)
-    crc, left = 0, data_end
-    while left:
-        block = f.read(min(left, 1 << 22))
-        crc, left = zlib.crc32(block, crc), left - len(block)
-    if crc != expected:
-        raise ValueError("data section CRC mismatch (damaged bytes)")
 
 
 def _decode_png(data: bytes) -> np.ndarray:

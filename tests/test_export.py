@@ -170,15 +170,16 @@ def test_roborefer_layout_and_records(roborefer, multiview_dataset):
     assert ("multi_view_qa" in subsets) == ("multiview" in families)
     ids = [r["id"] for rows in subsets.values() for r in rows]
     assert len(ids) == len(set(ids))
+    folders = {"visual_choice_qa": ("image_visual_choice", "depth"), "multi_view_qa": ("image_multi_view", "depth_multi_view")}
     for name, rows in subsets.items():
-        folder = roborefer / ("image_visual_choice" if name == "visual_choice_qa" else "image")
+        image_dir, depth_dir = (roborefer / f for f in folders.get(name, ("image", "depth")))
         for r in rows:
             assert set(r) == {"id", "image", "depth", "conversations"}
             images = r["image"] if isinstance(r["image"], list) else [r["image"]]
             depths = r["depth"] if isinstance(r["depth"], list) else [r["depth"]]
             assert len(images) == len(depths) == (2 if name == "multi_view_qa" else 1)
             for image, depth in zip(images, depths):
-                assert _imread(folder / image).shape[2] == 3 and _imread(roborefer / "depth" / depth).shape[2] == 3
+                assert _imread(image_dir / image).shape[2] == 3 and _imread(depth_dir / depth).shape[2] == 3
             turns = r["conversations"]
             assert 2 <= len(turns) <= 30 and len(turns) % 2 == 0
             assert [t["from"] for t in turns] == ["human", "gpt"] * (len(turns) // 2)

@@ -53,14 +53,24 @@ class Format:
         return getattr(importlib.import_module(module, __name__), function)
 
 
+_UNSEEN = Option("--unseen-share", {
+    "type": _nonnegative_float, "default": 0.0, "metavar": "F",
+    "help": "hold out about this share of predicate combinations (a fixed hash of their names): "
+            "training subsets leave them out, the Unseen bench split tests them (default: 0)"})
 _ASCII = Option("--ascii", {"action": "store_true", "help": "write text files instead of binary"})
 FORMATS: dict[str, Format] = {f.name: f for f in (
     Format("roborefer", ".roborefer:export_roborefer",
-           "RoboRefer / LLaVA-style JSON subsets with image/ and depth/ folders",
+           "RoboRefer / LLaVA-style JSON subsets with image/ and depth/ folders and their registration",
            (Option("--max-turns", {"type": _positive_int, "default": 15,
-                                   "help": "QA turns per record, at most 15 (default: 15)"}),)),
+                                   "help": "QA turns per record, at most 15 (default: 15)"}),
+            Option("--depth-encoding", {"choices": ("linear", "inverse"), "default": "linear",
+                                        "help": "depth PNGs: linear metric depth, or inverse (relative inverse "
+                                                "depth as Depth Anything gives RoboRefer at inference); both "
+                                                "min-max per image, near bright (default: linear)"}),
+            _UNSEEN)),
     Format("bench", ".bench:export_bench",
-           "RefSpatial-Bench layout: <Split>/question.json with RGB and mask PNGs"),
+           "RefSpatial-Bench layout: <Split>/question.json with RGB and mask PNGs, and as Parquet",
+           (_UNSEEN,)),
     Format("parquet", ".parquet:export_parquet",
            "Hugging Face datasets Parquet: one row per record, images as Image structs"),
     Format("usd", ".usd:export_usd", "one USD stage per scene (meshes rebuilt from recipe and seed)",

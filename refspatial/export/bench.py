@@ -9,6 +9,11 @@ Location masks are the target's visible segmentation. Placement masks are the fr
 a placement QA stores under ``free_mask`` (run-length code of ``refspatial.annotate``, see
 docs/FORMAT.md); placement QA without one are skipped and counted, never given an invented
 mask.
+
+With ``--unseen-share F`` (see ``unseen``), questions whose predicate combination is held
+out leave Location and Placement for a third split, ``Unseen``, as RefSpatial-Bench has.
+Beside the folders, ``data/<split>-00000-of-00001.parquet`` and README.md hold the same
+benchmark as Hugging Face Parquet (``bench_parquet``).
 """
 
 from __future__ import annotations
@@ -20,52 +25,84 @@ from typing import Sequence
 
 import numpy as np
 
-from .common import ExportError, ExportSummary, file_stem, finish, open_dataset, samples, staged, write_json, write_png
+from .common import (
+    ExportError,
+    ExportSummary,
+    file_stem,
+    finish,
+    open_dataset,
+    read_manifest,
+    samples,
+    staged,
+    write_json,
+    write_png,
+)
+from .unseen import HoldOut
 
-# split folder -> (QA family, bench category)
-SPLITS = {"Location": ("location", "location"), "Placement": ("placement", "placement")}
+SPLITS = {"Location": "location", "Placement": "placement"}  # split folder -> QA family = bench category
+UNSEEN = "Unseen"
 # RoboRefer's point pattern: "(x, y)"; numbers with a dot are normalised, others are pixels.
 _TUPLE = re.compile(r"\(([-+]?\d+\.?\d*(?:,\s*[-+]?\d+\.?\d*)*?)\)")
 
 
-def export_bench(dataset_dir: Path, out_dir: Path, *, overwrite: bool = False) -> ExportSummary:
-    """Write one split folder per bench category that has questions."""
+def export_bench(dataset_dir: Path, out_dir: Path, *, unseen_share: float = 0.0,
+                 overwrite: bool = False) -> ExportSummary:
+    """Write one split folder per bench category that has questions, and their Parquet."""
+    from .bench_parquet import write_bench_parquet
+
+    hold = HoldOut(unseen_share)
+    with staged(out_dir, overwrite) as tmp:
+        records, counts, licences = write_splits(dataset_dir, tmp, hold, (*SPLITS, UNSEEN))
+        write_bench_parquet(tmp, read_manifest(dataset_dir), licences, unseen_share)
+        return finish("bench", tmp, out_dir, dataset_dir, records, counts, {"unseen_share": unseen_share})
+
+
+def write_splits(dataset_dir: Path, root: Path, hold: HoldOut,
+                 wanted: Sequence[str]) -> tuple[int, dict[str, int], set[str]]:
+    """The ``wanted`` split folders under ``root``; (records read, counts, licences of the
+    objects in the images written)."""
+    trained = hold.trained_predicates(qa for s in samples(open_dataset(dataset_dir, ())) for qa in s["qa"])
     dataset = open_dataset(dataset_dir, ("rgb", "seg"))
     questions: dict[str, list[dict]] = defaultdict(list)
     counts: dict[str, int] = defaultdict(int)
-    records = 0
-    with staged(out_dir, overwrite) as tmp:
-        for s in samples(dataset):
-            records += 1
-            stem, written = file_stem(s["key"]), set()
-            for qa in s["qa"]:
-                split = _split(qa)
-                if split is None:
-                    continue
-                mask = _mask(qa, s["seg"])
-                if mask is None:
-                    counts[f"{split} skipped (no mask)"] += 1
-                    continue
-                entry = _question(len(questions[split]), qa, stem, split)
-                if split not in written:
-                    write_png(tmp / split / entry["rgb_path"], s["rgb"])
-                    written.add(split)
-                write_png(tmp / split / entry["mask_path"], mask.astype(np.uint8) * 255)
-                questions[split].append(entry)
-        for split, entries in sorted(questions.items()):
-            write_json(tmp / split / "question.json", entries)
-            counts[split] = len(entries)
-        return finish("bench", tmp, out_dir, dataset_dir, records, dict(counts), {})
+    records, licences = 0, set()
+    for s in samples(dataset):
+        records += 1
+        stem, written = file_stem(s["key"]), set()
+        for qa in s["qa"]:
+            split = _split(qa, hold, trained, counts)
+            if split not in wanted:
+                continue
+            mask = _mask(qa, s["seg"])
+            if mask is None:
+                counts[f"{split} skipped (no mask)"] += 1
+                continue
+            entry = _question(len(questions[split]), qa, stem)
+            if split not in written:
+                write_png(root / split / entry["rgb_path"], s["rgb"])
+                written.add(split)
+                licences |= {o["licence"] for o in s["scene"]["objects"]}
+            write_png(root / split / entry["mask_path"], mask.astype(np.uint8) * 255)
+            questions[split].append(entry)
+    for split, entries in sorted(questions.items()):
+        write_json(root / split / "question.json", entries)
+        counts[split] = len(entries)
+    return records, dict(counts), licences
 
 
-def _split(qa: dict) -> str | None:
-    for split, (family, _) in SPLITS.items():
+def _split(qa: dict, hold: HoldOut, trained: frozenset[str], counts: dict[str, int]) -> str | None:
+    for split, family in SPLITS.items():
         if qa["family"] == family and qa["kind"] == "point":
-            return split
+            if not hold.held_out(qa):
+                return split
+            if hold.testable(qa, trained):
+                return UNSEEN
+            counts[f"{UNSEEN} skipped (a predicate never trained)"] += 1
+            return None
     return None
 
 
-def _question(qid: int, qa: dict, stem: str, split: str) -> dict:
+def _question(qid: int, qa: dict, stem: str) -> dict:
     prompt = qa["prompt"]
     if not qa["question"].startswith(prompt + " "):
         raise ExportError(f"QA {qa['qa_id']}: question does not start with its prompt plus a space; "
@@ -77,7 +114,7 @@ def _question(qid: int, qa: dict, stem: str, split: str) -> dict:
         "suffix": qa["question"][len(prompt) + 1:],
         "rgb_path": f"image/{stem}.png",
         "mask_path": f"mask/{qid}.png",
-        "category": SPLITS[split][1],
+        "category": qa["family"],  # location or placement, in Unseen too
         "step": int(qa["num_steps"]),
         "qa_id": qa["qa_id"],  # provenance; RoboRefer's scripts ignore extra keys
     }

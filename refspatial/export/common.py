@@ -142,17 +142,39 @@ def valid_depth(depth_m: np.ndarray) -> np.ndarray:
     return np.isfinite(depth_m) & (depth_m > 0) & (depth_m < FAR_FRACTION * FAR_PLANE_M)
 
 
-def depth_to_png8(depth_m: np.ndarray) -> np.ndarray:
-    """(H, W, 3) uint8 depth for the model: min-max over valid depth, near = 255, far = 0;
-    pixels without a surface are 0, like the farthest surface."""
+def depth_to_png8(depth_m: np.ndarray, encoding: str = "linear") -> np.ndarray:
+    """(H, W, 3) uint8 depth for the model, near bright; pixels without a surface are 0.
+
+    ``linear``: min-max over the valid depth, nearest = 255, farthest surface = 0 (rounded).
+    ``inverse``: what RoboRefer's inference path feeds its depth encoder, Depth-Anything-style
+    relative inverse depth: 1 / depth, min-max normalised per image over the valid pixels,
+    times 255 and truncated to uint8 as RoboRefer's API does with Depth Anything V2's output.
+    Inverse depth spends the grey levels on near surfaces, where a tabletop's objects are.
+    """
+    if encoding not in DEPTH_ENCODINGS:
+        raise ExportError(f"depth encoding {encoding!r} is unknown; choose one of {', '.join(DEPTH_ENCODINGS)}")
     valid = valid_depth(depth_m)
     out = np.zeros(depth_m.shape, np.uint8)
     if valid.any():
         d = depth_m[valid].astype(np.float64)
-        lo, hi = d.min(), d.max()
-        near = (hi - d) / (hi - lo) if hi > lo else np.ones_like(d)  # 1 nearest, 0 farthest
-        out[valid] = np.round(255.0 * near).astype(np.uint8)
+        out[valid] = DEPTH_ENCODINGS[encoding](d)
     return np.repeat(out[..., None], 3, axis=2)
+
+
+def _linear(d: np.ndarray) -> np.ndarray:
+    lo, hi = d.min(), d.max()
+    near = (hi - d) / (hi - lo) if hi > lo else np.ones_like(d)  # 1 nearest, 0 farthest
+    return np.round(255.0 * near).astype(np.uint8)
+
+
+def _inverse(d: np.ndarray) -> np.ndarray:
+    inv = 1.0 / d
+    lo, hi = inv.min(), inv.max()
+    near = (inv - lo) / (hi - lo) if hi > lo else np.ones_like(inv)
+    return (255.0 * near).astype(np.uint8)
+
+
+DEPTH_ENCODINGS = {"linear": _linear, "inverse": _inverse}
 
 
 def backproject(depth_m: np.ndarray, K: np.ndarray, T_world_cam: np.ndarray,

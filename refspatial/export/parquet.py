@@ -7,8 +7,9 @@ the rows into one sample per QA where a trainer wants that.
 
 Images are ``{"bytes": png, "path": name}`` structs, and the Arrow schema carries the
 ``huggingface`` features metadata, so ``datasets.load_dataset("parquet", data_files=...)``
-decodes ``image`` and ``depth`` as PIL images; README.md declares the files as the train
-split, so ``load_dataset(OUT)`` works too. Only pyarrow is needed to write.
+decodes ``image`` and ``depth`` as PIL images; README.md (the dataset card: licence and
+every column, ``cards``) declares the files as the train split, so ``load_dataset(OUT)``
+works too. Only pyarrow is needed to write. ``collate`` batches rows in a torch DataLoader.
 """
 
 from __future__ import annotations
@@ -16,7 +17,11 @@ from __future__ import annotations
 import itertools
 import json
 from pathlib import Path
+from typing import Any
 
+import numpy as np
+
+from .cards import RECORDS, licence, yaml_splits
 from .common import (
     ExportError,
     ExportSummary,
@@ -36,22 +41,6 @@ except ImportError:  # pragma: no cover - depends on the environment
     pa = pq = None
 
 ROW_GROUP = 100  # rows; small groups let `datasets` stream image data without huge reads
-CARD = """---
-configs:
-- config_name: default
-  data_files:
-  - split: train
-    path: data/train-*.parquet
----
-# {recipe} (refspatial export)
-
-Spatial-referring QA rendered by refspatial from recipe `{recipe}` (hash `{recipe_hash}`).
-One row per rendered view; `qa` holds its questions and answers. Points are normalised
-(x, y) with x = (u + 0.5) / width. `depth` is 8-bit, min-max normalised per image, near =
-bright. See docs/FORMAT.md in the refspatial repository for every field.
-"""
-
-
 def _schema() -> pa.Schema:
     image = pa.struct([("bytes", pa.binary()), ("path", pa.string())])
     matrix = pa.list_(pa.list_(pa.float64()))
@@ -66,9 +55,15 @@ def _schema() -> pa.Schema:
               ("view_index", pa.int64()), ("width", pa.int64()), ("height", pa.int64()),
               ("image", image), ("depth", image), ("K", matrix), ("T_world_cam", matrix),
               ("scene", pa.string()), ("relations", pa.string()), ("qa", pa.list_(qa))]
+    return hf_schema(fields, ("image", "depth"))
+
+
+def hf_schema(fields: list[tuple[str, pa.DataType]], images: tuple[str, ...]) -> pa.Schema:
+    """An Arrow schema with the ``huggingface`` features metadata, so ``datasets`` decodes
+    the ``images`` columns (``{"bytes", "path"}`` structs) as PIL images."""
     schema = pa.schema(fields)
     features = {f.name: _feature(f.type) for f in schema}
-    features["image"] = features["depth"] = {"_type": "Image"}
+    features.update({name: {"_type": "Image"} for name in images})
     meta = {"huggingface": json.dumps({"info": {"features": features}}, sort_keys=True)}
     return schema.with_metadata(meta)
 
@@ -93,10 +88,13 @@ def export_parquet(dataset_dir: Path, out_dir: Path, *, overwrite: bool = False)
     dataset = open_dataset(dataset_dir, ("rgb", "depth"))
     schema, n_files = _schema(), len(dataset.shards)
     records = qa = 0
+    licences: set[str] = set()
     with staged(out_dir, overwrite) as tmp:
         (tmp / "data").mkdir()
         groups = itertools.groupby(samples(dataset), key=lambda s: s["shard"])
         for i, (_, group) in enumerate(groups):
+            group = list(group)
+            licences |= {o["licence"] for s in group for o in s["scene"]["objects"]}
             rows = [_row(s) for s in group]
             records += len(rows)
             qa += sum(len(r["qa"]) for r in rows)
@@ -104,8 +102,10 @@ def export_parquet(dataset_dir: Path, out_dir: Path, *, overwrite: bool = False)
             pq.write_table(table, tmp / "data" / f"train-{i:05d}-of-{n_files:05d}.parquet",
                            compression="zstd", row_group_size=ROW_GROUP)
         m = json.loads((Path(dataset_dir) / "manifest.json").read_text(encoding="utf-8"))
-        (tmp / "README.md").write_text(CARD.format(recipe=m["recipe"], recipe_hash=m["recipe_hash"]),
-                                       encoding="utf-8")
+        tag, text = licence(licences)
+        card = RECORDS.format(tag=tag, licence=text, splits=yaml_splits({"train": "data/train-*.parquet"}),
+                              recipe=m["recipe"], recipe_hash=m["recipe_hash"], records=records, qa=qa)
+        (tmp / "README.md").write_text(card, encoding="utf-8")
         return finish("parquet", tmp, out_dir, dataset_dir, records, {"rows": records, "qa": qa}, {})
 
 
@@ -130,3 +130,44 @@ def _qa(q: dict) -> dict:
 
 def _dumps(obj: object) -> str:
     return json.dumps(obj, sort_keys=True, ensure_ascii=False, separators=(",", ":"))
+
+
+# --- reading ----------------------------------------------------------------------------------
+
+_MATRICES = ("K", "T_world_cam")
+_IMAGES = ("image", "depth")
+
+
+def collate(rows: list[dict]) -> dict[str, Any]:
+    """Batch rows of this export as ``datasets`` gives them, for ``DataLoader(collate_fn=...)``.
+
+    ``qa`` stays one list per row, each QA the whole stored dict (its ``json``, with
+    family-specific fields such as ``free_mask`` or ``marks``): rows hold different numbers
+    of QA, which torch's default collate refuses. ``image`` and ``depth`` become uint8
+    (B, H, W, 3) tensors, ``K`` and ``T_world_cam`` float64 (B, 3, 3) and (B, 4, 4); every
+    other column a list, one item per row. Views of different sizes cannot share a batch.
+    """
+    import torch
+
+    if not rows:
+        raise ValueError("collate needs at least one row")
+    out: dict[str, Any] = {}
+    for name in rows[0]:
+        values = [r[name] for r in rows]
+        if name == "qa":
+            out[name] = [[json.loads(q["json"]) for q in qa] for qa in values]
+        elif name in _IMAGES:
+            out[name] = torch.from_numpy(_stack(name, [np.asarray(v.convert("RGB")) for v in values]))
+        elif name in _MATRICES:
+            out[name] = torch.tensor(values, dtype=torch.float64)
+        else:
+            out[name] = values
+    return out
+
+
+def _stack(name: str, arrays: list[np.ndarray]) -> np.ndarray:
+    shapes = sorted({a.shape for a in arrays})
+    if len(shapes) > 1:
+        raise ValueError(f"cannot batch {name!r}: sizes {shapes} differ; batch views of one recipe "
+                         "(one resolution) together or resize them in a transform")
+    return np.stack(arrays)
