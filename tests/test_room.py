@@ -10,6 +10,7 @@ import pytest
 
 from refspatial.assets import load_catalogue
 from refspatial.colour import DISTINCT_DELTA_E, delta_e
+from refspatial.colour_words import reads_as
 from refspatial.compose import SceneRejected
 from refspatial.export.common import valid_depth as has_surface
 from refspatial.pipeline import build_scene, room_dict
@@ -105,9 +106,10 @@ def test_colour_words_only_tell_apart_what_looks_different(rendered) -> None:
     recipe, scene, views = rendered["tabletop"]
     facts = view_facts(scene, views[0])
     seen = [o for o in facts.objects if o.status == "visible"]
-    target = seen[0]
+    target = next(o for o in seen if reads_as(o.lab, o.color))  # its own word is true to the picture
+    other = next(o for o in seen if o is not target)
     # A twin of the target's category under another colour word, rendered nearly alike...
-    twin = dataclasses.replace(seen[1], category=target.category, name=target.name,
+    twin = dataclasses.replace(other, category=target.category, name=target.name,
                                color="silver" if target.color != "silver" else "white",
                                lab=tuple(np.add(target.lab, (3.0, 0.0, 0.0))))
     objects = tuple(twin if o.object_id == twin.object_id else o for o in facts.objects)
