@@ -153,3 +153,21 @@ def test_every_catalogue_colour_word_has_a_rendered_prototype(catalogue):
     from refspatial.colour_words import known
 
     assert [c for c in catalogue.colors if not known(c)] == []
+
+
+def test_a_colour_word_is_used_only_when_everything_it_names_looks_it():
+    """"The rearmost gray phone" counts the phones a reader sees as gray: when another "gray"
+    phone renders white, the word would make the reader count it out (strict audit, tabletop)."""
+    from refspatial.colour_words import _table
+    from refspatial.questions.refer import colour_tells_apart
+
+    prototypes = _table()[0]
+
+    def phone(i: int, x: float, looks: str):
+        facts = _facts({"id": i, "category": "phone", "at": [x, 0.2, 0.0], "size": [0.07, 0.15, 0.01]})
+        return dataclasses.replace(facts, color="gray", lab=tuple(prototypes[looks]))
+
+    back, front = phone(0, -0.2, "gray"), phone(1, 0.2, "gray")
+    assert colour_tells_apart(view(back, front), back, "phone")
+    front = phone(1, 0.2, "white")
+    assert not colour_tells_apart(view(back, front), back, "phone")

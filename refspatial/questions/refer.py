@@ -121,15 +121,19 @@ def simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
 
 def colour_tells_apart(view: ViewFacts, target: ObjectFacts, category: str | None) -> bool:
     """Whether the target's colour word may pick it out among things of ``category`` (any, when
-    None): its rendered colour must read as that word (``colour_words.reads_as``: a "white" pot
-    in shadow renders gray), and every seen one named by another colour must also look clearly
-    different in the image (CIE Lab distance of the mean visible colours at least
-    DISTINCT_DELTA_E). A "white" and a "silver" spoon that render alike are told apart some
-    other way. Facts without rendered colours (records written before they were stored) fall
-    back to the words alone."""
+    None): its rendered colour, and that of every seen one the word also names, must read as
+    that word (``colour_words.reads_as``: a "white" pot in shadow renders gray), and every seen
+    one named by another colour must look clearly different in the image (CIE Lab distance of
+    the mean visible colours at least DISTINCT_DELTA_E). A "white" and a "silver" spoon that
+    render alike are told apart some other way. Facts without rendered colours (records
+    written before they were stored) fall back to the words alone."""
     key = ("colour_apart", target.object_id, category)
     if key not in view.cache:
-        view.cache[key] = (target.lab is None or reads_as(target.lab, target.color)) and all(
+        # Every one the word picks out must look it: "the rearmost gray phone" counts the phones
+        # a reader sees as gray, whichever of them is the target.
+        namesakes = [o for o in view.objects if o.color == target.color and o.status != "hidden"
+                     and category in (None, o.category)]
+        view.cache[key] = all(o.lab is None or reads_as(o.lab, o.color) for o in namesakes) and all(
             o.lab is None or target.lab is None or delta_e(o.lab, target.lab) >= DISTINCT_DELTA_E
             for o in view.objects
             if o.object_id != target.object_id and o.status != "hidden" and category in (None, o.category)
