@@ -7,8 +7,9 @@ its MCAP file is renamed into place, then a small JSON sidecar with its counts
 and checksum; the manifest is rebuilt from the sidecars at the end. Running the
 same command again, after a crash, ``kill -9`` or a full disk, skips complete
 shards (checked against their checksum), deletes stale ``.partial`` files and
-redoes the rest. Where the shards run (this process, worker processes, a Ray
-cluster) is the executor's business (``executors.py``).
+redoes the rest. How one shard is made is ``shard_job.py``'s business, and where
+the shards run (this process, worker processes, a Ray cluster) the executor's
+(``executors.py``); neither imports this module.
 """
 
 from __future__ import annotations
@@ -19,73 +20,25 @@ import json
 import os
 import sys
 from contextlib import contextmanager
-from dataclasses import dataclass
 from importlib import metadata as importlib_metadata
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterator, Protocol
+from typing import TYPE_CHECKING, Iterator, Protocol
 
 from . import __version__
-from .records import ShardWriter, sha256_file
-from .seeding import scene_seed
+from .executors import Executor, ShardResult, local_executor
+from .run_errors import RunError, RunFailed
+from .shard_job import FORMAT, FORMAT_VERSION, SceneTick, ShardJob, complete, read_sidecar, write_json
+# Also importable from here, where they lived before one shard's code moved to shard_job.
+from .shard_job import OnScene, WriterFactory, one_line, run_shard  # noqa: F401
 
 if TYPE_CHECKING:  # kept out of worker start-up: assets imports trimesh (~2 s)
     from .assets import Catalogue
-    from .executors import Executor, ShardResult
-    from .pipeline import SceneOutcome
     from .recipe import Recipe
 
-FORMAT = "refspatial-shards"
-FORMAT_VERSION = 1
 VERSIONED_PACKAGES = ("mujoco", "numpy", "trimesh", "manifold3d", "mcap", "opencv-python-headless")
 RERUN = "run the same command again to finish"
 # Writing can fail this way for every shard alike: stop at once rather than burn the whole plan.
 FATAL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})
-
-
-class RunError(RuntimeError):
-    """A run that cannot start; the message says what to change."""
-
-
-class RunFailed(RunError):
-    """A run that started but could not finish every shard; complete shards are kept."""
-
-
-@dataclass(frozen=True)
-class ShardJob:
-    index: int
-    start: int  # first scene index
-    stop: int  # one past the last scene index
-    out_dir: Path
-    recipe: Recipe
-    catalogue: Catalogue
-    base_seed: int
-
-    @property
-    def name(self) -> str:
-        return f"shard-{self.index:05d}"
-
-    @property
-    def mcap_path(self) -> Path:
-        return self.out_dir / "shards" / f"{self.name}.mcap"
-
-    @property
-    def sidecar_path(self) -> Path:
-        return self.out_dir / "shards" / f"{self.name}.json"
-
-
-@dataclass(frozen=True)
-class SceneTick:
-    """One scene finished inside a shard still being written: progress only, never stored."""
-
-    shard: int
-    index: int
-    records: int
-    qa: int
-    skipped: str | None  # reason slug, None when the scene made records
-
-
-OnScene = Callable[[SceneTick], None]
-WriterFactory = Callable[[Path, dict], ShardWriter]
 
 
 class Progress(Protocol):
@@ -106,105 +59,6 @@ def plan_jobs(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int
               scenes_per_shard: int) -> list[ShardJob]:
     return [ShardJob(i, a, b, out_dir, recipe, catalogue, base_seed)
             for i, (a, b) in enumerate(plan(n_scenes, scenes_per_shard))]
-
-
-def run_shard(job: ShardJob, on_scene: OnScene | None = None,
-              open_writer: WriterFactory = ShardWriter) -> dict:
-    """Generate one shard's scenes and write them; returns its summary (with timings).
-
-    A scene that fails in any way is recorded as skipped with its reason and the shard
-    goes on; only writing errors (a full disk) end the shard, leaving no file behind.
-    ``open_writer`` exists so that tests can make the disk fail.
-    """
-    seconds: dict[str, float] = {}
-    skipped, qa, records = [], 0, 0
-    with open_writer(job.mcap_path, _shard_metadata(job)) as writer:
-        for index in range(job.start, job.stop):
-            outcome = _scene(job, index)
-            for record in outcome.records:
-                writer.write(record)
-            n_qa = sum(len(r.qa) for r in outcome.records)
-            records, qa = records + len(outcome.records), qa + n_qa
-            for stage, s in outcome.seconds.items():
-                seconds[stage] = seconds.get(stage, 0.0) + s
-            if outcome.rejected:
-                skipped.append({"index": index, "seed": outcome.seed, "reason": outcome.rejected,
-                                "detail": outcome.detail})
-            if on_scene:
-                on_scene(SceneTick(job.index, index, len(outcome.records), n_qa, outcome.rejected))
-    summary = {
-        "file": f"shards/{job.name}.mcap",
-        "scenes": [job.start, job.stop],
-        "records": records,
-        "qa": qa,
-        "sha256": sha256_file(job.mcap_path),
-        "skipped": skipped,
-        "recipe_hash": job.recipe.hash,
-        "base_seed": job.base_seed,
-    }
-    _write_json(job.sidecar_path, summary)
-    return {**summary, "seconds": seconds}
-
-
-def _scene(job: ShardJob, index: int) -> SceneOutcome:
-    """generate_scene, with any exception turned into a skipped scene: one bad scene
-    (a physics blow-up, a renderer error, a bug hit by one seed) must not cost the run."""
-    from .pipeline import SceneOutcome, generate_scene
-
-    seed = scene_seed(job.base_seed, index)
-    try:
-        return generate_scene(job.recipe, job.catalogue, seed)
-    except Exception as exc:  # noqa: BLE001 - recorded with type and message, never hidden
-        return SceneOutcome(seed, rejected="error", detail=one_line(exc))
-
-
-def one_line(exc: BaseException) -> str:
-    """``Type: message`` on one line, the form errors take in sidecars and messages."""
-    text = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
-def _shard_metadata(job: ShardJob) -> dict[str, dict[str, str]]:
-    return {
-        "refspatial": {
-            "version": __version__,
-            "format": FORMAT,
-            "format_version": str(FORMAT_VERSION),
-            "recipe": job.recipe.name,
-            "recipe_hash": job.recipe.hash,
-            "catalogue_sha256": job.catalogue.sha256,
-            "base_seed": str(job.base_seed),
-            "scenes": f"{job.start}-{job.stop}",
-            **({"libraries": json.dumps(job.catalogue.libraries.manifest(), sort_keys=True)}
-               if job.catalogue.libraries is not None else {}),
-        },
-        "recipe": {"name": job.recipe.name, "yaml": job.recipe.text, "resolved_yaml": job.recipe.resolved_yaml,
-                   "resolved_json": json.dumps(job.recipe.data, sort_keys=True)},
-    }
-
-
-def _write_json(path: Path, obj: dict) -> None:
-    tmp = path.with_name(f".{path.name}.partial")
-    tmp.write_text(json.dumps(obj, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    tmp.replace(path)
-
-
-def _read_sidecar(path: Path) -> dict | None:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return None  # missing or torn: the shard is simply redone
-
-
-def complete(job: ShardJob) -> dict | None:
-    """The sidecar of a shard already on disk whose checksum still matches, else None."""
-    if not (job.sidecar_path.is_file() and job.mcap_path.is_file()):
-        return None
-    summary = _read_sidecar(job.sidecar_path)
-    if (summary is None or summary.get("scenes") != [job.start, job.stop]
-            or summary.get("recipe_hash") != job.recipe.hash or summary.get("base_seed") != job.base_seed):
-        return None
-    return summary if summary.get("sha256") == sha256_file(job.mcap_path) else None
 
 
 def remove_partials(out_dir: Path) -> list[Path]:
@@ -266,7 +120,7 @@ def _existing_runs(out_dir: Path, scenes_per_shard: int) -> Iterator[dict]:
         yield json.loads(manifest.read_text(encoding="utf-8"))
         return
     for path in sorted((out_dir / "shards").glob("shard-*.json")):
-        side = _read_sidecar(path)
+        side = read_sidecar(path)
         if side is None or "scenes" not in side:
             continue
         spp = _shard_size(int(path.stem.split("-")[1]), *side["scenes"], scenes_per_shard)
@@ -294,8 +148,6 @@ def generate(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int,
     Raises RunFailed, after every shard that could be made is on disk, when some shard
     could not be; running the same call again finishes the dataset.
     """
-    from .executors import local_executor
-
     check_args(n_scenes, workers, scenes_per_shard)
     out_dir = Path(out_dir)
     prepare_out_dir(out_dir, recipe, base_seed, scenes_per_shard)
@@ -314,7 +166,7 @@ def generate(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int,
         if failures:
             raise RunFailed(_failure_message(failures, len(done), len(jobs)))
         manifest = build_manifest(recipe, catalogue, base_seed, scenes_per_shard, [done[j.index] for j in jobs])
-        _write_json(out_dir / "manifest.json", manifest)
+        write_json(out_dir / "manifest.json", manifest)
     return manifest
 
 
