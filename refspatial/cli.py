@@ -109,9 +109,10 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .records import ShardError
     from .shards import RunError
     from .library import LibraryError
+    from .manifest import ManifestError
 
     return (LibraryError, RecipeError, CatalogueError, RunError, ShardError, ExportError, ReportError, ShowError,
-            FileNotFoundError, NotADirectoryError)
+            ManifestError, FileNotFoundError, NotADirectoryError)
 
 
 def _generate(args: argparse.Namespace) -> int:
@@ -138,6 +139,7 @@ def _generate(args: argparse.Namespace) -> int:
         print(format_plan(dry_run(args.out, recipe, catalogue, args.scenes, args.seed, args.workers,
                                   args.scenes_per_shard, args.calibrate, None if executor else os.cpu_count())))
         return 0
+    damaged = _damaged_manifest(args.out)
     progress, manifest, failed = None if args.quiet else RunProgress(), None, None
     with sigterm_as_interrupt():
         try:
@@ -151,9 +153,26 @@ def _generate(args: argparse.Namespace) -> int:
     if failed:
         print(f"refspatial: error: {failed}", file=sys.stderr)
         return 1
+    if damaged:
+        print(f"refspatial: {args.out / 'manifest.json'} was damaged ({damaged}); rebuilt it from the shards' sidecars",
+              file=sys.stderr)
     print(f"wrote {manifest['records']} records, {manifest['qa']} QA from {manifest['scenes']} scenes "
           f"({manifest['rejected']['count']} rejected) to {args.out}")
     return 0
+
+
+def _damaged_manifest(out: Path) -> str | None:
+    """What is wrong with ``out``'s manifest when one is there but unusable (a run rebuilds it)."""
+    from .manifest import MANIFEST, manifest_problem
+
+    try:
+        text = (out / MANIFEST).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None  # none there (or unreadable: the run's own checks say so)
+    try:
+        return manifest_problem(json.loads(text))
+    except json.JSONDecodeError:
+        return "not valid JSON"
 
 
 def _stats(args: argparse.Namespace) -> int:

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 from . import __version__
+from .atomic import write_json
 from .records import ShardWriter, sha256_file
 from .seeding import scene_seed
 
@@ -138,12 +139,6 @@ def _shard_metadata(job: ShardJob) -> dict[str, dict[str, str]]:
         "recipe": {"name": job.recipe.name, "yaml": job.recipe.text, "resolved_yaml": job.recipe.resolved_yaml,
                    "resolved_json": json.dumps(job.recipe.data, sort_keys=True)},
     }
-
-
-def write_json(path: Path, obj: dict) -> None:
-    tmp = path.with_name(f".{path.name}.partial")
-    tmp.write_text(json.dumps(obj, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    tmp.replace(path)
 
 
 def read_sidecar(path: Path) -> dict | None:

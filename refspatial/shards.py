@@ -16,26 +16,23 @@ from __future__ import annotations
 
 import errno
 import fcntl
-import json
 import os
-import sys
 from contextlib import contextmanager
-from importlib import metadata as importlib_metadata
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterator, Protocol
 
-from . import __version__
 from .executors import Executor, ShardResult, local_executor
+from .manifest import MANIFEST, ManifestError, build_manifest, read_manifest
 from .run_errors import RunError, RunFailed
-from .shard_job import FORMAT, FORMAT_VERSION, SceneTick, ShardJob, complete, read_sidecar, write_json
+from .atomic import write_json
+from .shard_job import SceneTick, ShardJob, complete, read_sidecar
 # Also importable from here, where they lived before one shard's code moved to shard_job.
-from .shard_job import OnScene, WriterFactory, one_line, run_shard  # noqa: F401
+from .shard_job import FORMAT, FORMAT_VERSION, OnScene, WriterFactory, one_line, run_shard  # noqa: F401
 
 if TYPE_CHECKING:  # kept out of worker start-up: assets imports trimesh (~2 s)
     from .assets import Catalogue
     from .recipe import Recipe
 
-VERSIONED_PACKAGES = ("mujoco", "numpy", "trimesh", "manifold3d", "mcap", "opencv-python-headless")
 RERUN = "run the same command again to finish"
 # Writing can fail this way for every shard alike: stop at once rather than burn the whole plan.
 FATAL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})
@@ -114,11 +111,13 @@ def check_existing(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_sha
 
 
 def _existing_runs(out_dir: Path, scenes_per_shard: int) -> Iterator[dict]:
-    """What the manifest, or failing that each sidecar of an unfinished run, says made them."""
-    manifest = out_dir / "manifest.json"
-    if manifest.is_file():
-        yield json.loads(manifest.read_text(encoding="utf-8"))
+    """What the manifest, or failing that each sidecar of an unfinished run, says made them.
+    A damaged manifest counts as none: the sidecars say the same, and the run rewrites it."""
+    try:
+        yield read_manifest(out_dir)
         return
+    except (ManifestError, FileNotFoundError):
+        pass
     for path in sorted((out_dir / "shards").glob("shard-*.json")):
         side = read_sidecar(path)
         if side is None or "scenes" not in side:
@@ -166,7 +165,12 @@ def generate(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int,
         if failures:
             raise RunFailed(_failure_message(failures, len(done), len(jobs)))
         manifest = build_manifest(recipe, catalogue, base_seed, scenes_per_shard, [done[j.index] for j in jobs])
-        write_json(out_dir / "manifest.json", manifest)
+        try:
+            write_json(out_dir / MANIFEST, manifest)
+        except OSError as exc:  # every shard is on disk: only the manifest is left to write
+            fix = "free space or fix the folder's permissions, then " if exc.errno in FATAL_ERRNOS else ""
+            raise RunFailed(f"the shards are complete but {out_dir / MANIFEST} could not be written "
+                            f"({exc.strerror or one_line(exc)}); {fix}{RERUN}") from None
     return manifest
 
 
@@ -217,42 +221,3 @@ def _failure_message(failures: list[tuple[ShardJob, str, bool]], complete: int, 
     more = f"; {len(failures) - 1} more shard(s) failed" if len(failures) > 1 else ""
     fix = "free space or fix the folder's permissions (or choose another --out), then " if fatal else ""
     return f"{what}{more}; {complete} of {total} shards are complete; {fix}{RERUN}"
-
-
-def build_manifest(recipe: Recipe, catalogue: Catalogue, base_seed: int, scenes_per_shard: int,
-                   summaries: list[dict]) -> dict:
-    shards = [{k: s[k] for k in ("file", "scenes", "records", "qa", "sha256")} for s in summaries]
-    skipped = [x for s in summaries for x in s["skipped"]]
-    reasons: dict[str, int] = {}
-    for x in skipped:
-        reasons[x["reason"]] = reasons.get(x["reason"], 0) + 1
-    scenes = sum(b - a for a, b in (s["scenes"] for s in summaries))
-    return {
-        "format": FORMAT,
-        "format_version": FORMAT_VERSION,
-        "generator": {"refspatial": __version__, "python": sys.version.split()[0], "packages": package_versions()},
-        "recipe": recipe.name,
-        "recipe_hash": recipe.hash,
-        "recipe_yaml": recipe.text,
-        "recipe_resolved_yaml": recipe.resolved_yaml,  # loads on its own, parents and all
-        "catalogue_sha256": catalogue.sha256,
-        **({"libraries": catalogue.libraries.manifest()} if catalogue.libraries is not None else {}),
-        "base_seed": base_seed,
-        "scenes_per_shard": scenes_per_shard,
-        "scenes": scenes,
-        "records": sum(s["records"] for s in shards),
-        "qa": sum(s["qa"] for s in shards),
-        "rejected": {"count": len(skipped), "rate": round(len(skipped) / scenes, 4) if scenes else 0.0,
-                     "reasons": dict(sorted(reasons.items())), "scenes": skipped},
-        "shards": shards,
-    }
-
-
-def package_versions() -> dict[str, str]:
-    out = {}
-    for name in VERSIONED_PACKAGES:
-        try:
-            out[name] = importlib_metadata.version(name)
-        except importlib_metadata.PackageNotFoundError:
-            out[name] = "missing"
-    return out

@@ -101,20 +101,20 @@ def run(args: argparse.Namespace) -> int:
 
 def read_record(root: Path, index: int) -> dict:
     """Record ``index`` counted across shards in manifest order, with rgb, depth and seg."""
-    from .data import load_manifest
+    from .manifest import read_manifest
     from .records import ShardReader
 
-    entries = load_manifest(root)
-    total = sum(e.records for e in entries)
+    shards = read_manifest(root)["shards"]
+    total = sum(s["records"] for s in shards)
     if total == 0:
         raise ShowError(f"--record {index}: {root} holds no records; generate some with `refspatial generate`")
     if not 0 <= index < total:
         raise ShowError(f"--record {index} is out of range; {root} holds records 0..{total - 1}, numbered "
                         "across shards in manifest order")
-    for e in entries:
-        if index < e.records:
-            return ShardReader(e.path).read(index)
-        index -= e.records
+    for s in shards:
+        if index < s["records"]:
+            return ShardReader(Path(root) / s["file"]).read(index)
+        index -= s["records"]
     raise AssertionError("unreachable: index checked against the total")
 
 

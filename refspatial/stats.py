@@ -9,7 +9,6 @@ Every aggregate is a plain JSON value, so ``refspatial stats --json`` and the HT
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from collections import Counter
@@ -20,6 +19,7 @@ import yaml
 
 from .image_stats import ImageTally
 from .image_stats import format_text as format_images
+from .manifest import read_manifest
 from .records import ShardReader
 
 # Answer-point histogram bins per axis. A multiple of 3, so the 3x3 balance grid is an exact
@@ -63,10 +63,8 @@ _COUNTERS = ("qa_predicates", "relation_predicates", "qa_predicate_families", "r
 
 
 def load_manifest(root: Path) -> dict:
-    path = Path(root) / "manifest.json"
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found; pass the folder that `refspatial generate --out` wrote")
-    return json.loads(path.read_text(encoding="utf-8"))
+    """``root``'s manifest; a missing or damaged one is a one-line error saying how to rebuild it."""
+    return read_manifest(root)
 
 
 class _Tally:

@@ -11,7 +11,6 @@ recomputed from the record itself.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -21,6 +20,7 @@ import numpy as np
 from .annotate import rle_decode
 from .questions.common import SIZE_MEASURES, _size_step
 from .questions.program import ProgramError, count_steps, execute, is_degenerate
+from .manifest import read_manifest
 from .records import ShardReader, sha256_file
 from .relations import ViewFacts
 from .relations.stored import facts_from_record
@@ -42,10 +42,7 @@ class Report:
 
 def verify(root: Path) -> Report:
     root = Path(root)
-    manifest_path = root / "manifest.json"
-    if not manifest_path.is_file():
-        raise FileNotFoundError(f"{manifest_path} not found; pass the folder that `refspatial generate --out` wrote")
-    manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
+    manifest = read_manifest(root)
     report = Report()
     for shard in manifest["shards"]:
         path = root / shard["file"]
