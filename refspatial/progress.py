@@ -67,11 +67,12 @@ class RunProgress:
         self.failures: list[str] = []
         self.t0 = self.drawn = 0.0
         self.live = False  # a bar line is on screen, unfinished
+        self.started = False  # a run refused before it starts has nothing to sum up
 
     def start(self, total_scenes: int, done_scenes: int, total_shards: int, done_shards: int) -> None:
         self.total, self.before = total_scenes, done_scenes
         self.shards_total, self.shards_done = total_shards, done_shards
-        self.t0 = self.clock()
+        self.t0, self.started = self.clock(), True
         if done_shards:
             rest = "doing the rest" if done_shards < total_shards else "nothing left to do"
             self._line(f"{done_shards} of {total_shards} shards already complete ({done_scenes} scenes); {rest}")
@@ -104,7 +105,9 @@ class RunProgress:
         self._line(f"{name} FAILED: {reason}")
 
     def close(self, finished: bool = True) -> None:
-        """The summary line; call it however the run ended."""
+        """The summary line; call it however the run ended (a run that never started has none)."""
+        if not self.started:
+            return
         elapsed = max(self.clock() - self.t0, 1e-9)
         skipped = ", ".join(f"{n} {r}" for r, n in sorted(self.skipped.items()))
         text = (f"{'done' if finished else 'stopped'}: {self.scenes} scenes"

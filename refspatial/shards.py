@@ -89,6 +89,13 @@ def run_lock(out_dir: Path) -> Iterator[None]:
 
 def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int) -> None:
     """Create the output folder, or check that an existing one holds this same run."""
+    if (out_dir / "shards").is_file():
+        raise RunError(f"--out {out_dir} holds a file named shards where the shards folder goes; "
+                       "move it away or choose another --out")
+    for path in (out_dir, *out_dir.parents):
+        if path.exists() and not path.is_dir():
+            where = "" if path == out_dir else f": {path}"
+            raise RunError(f"--out {out_dir}{where} is a file, not a folder; choose another --out")
     try:
         (out_dir / "shards").mkdir(parents=True, exist_ok=True)
         probe = out_dir / ".write-test"

@@ -56,12 +56,29 @@ def test_unwritable_output_folder(tmp_path, capsys):
     assert "cannot write" in capsys.readouterr().err
 
 
-def test_output_path_that_is_a_file(tmp_path, capsys):
-    blocker = tmp_path / "file"
-    blocker.write_text("precious")
-    assert main(["generate", "--scenes", "1", "--recipe", str(TINY), "--out", str(blocker / "ds")]) == 2
-    assert "cannot write" in capsys.readouterr().err
-    assert blocker.read_text() == "precious"
+@pytest.mark.parametrize("where, needle", [
+    ("file", "--out {file} is a file, not a folder"),
+    ("file/ds", ": {file} is a file, not a folder"),
+    ("holder", "holds a file named shards where the shards folder goes"),
+    ("busy", "another `refspatial generate` is writing to"),
+])
+def test_a_run_refused_before_it_starts_prints_one_line_and_no_summary(where, needle, tmp_path, capsys):
+    """Without --quiet: the progress summary ("stopped: 0 scenes in <uptime>") is for runs that started."""
+    import fcntl
+
+    (tmp_path / "file").write_text("precious")
+    (tmp_path / "holder").mkdir()
+    (tmp_path / "holder" / "shards").write_text("precious")
+    (tmp_path / "busy").mkdir()
+    fd = os.open(tmp_path / "busy", os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX)  # as a running `refspatial generate` holds it
+    try:
+        assert main(["generate", "--scenes", "1", "--recipe", str(TINY), "--out", str(tmp_path / where)]) == 2
+    finally:
+        os.close(fd)
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle.format(file=tmp_path / "file") in err, err
+    assert (tmp_path / "file").read_text() == (tmp_path / "holder" / "shards").read_text() == "precious"
 
 
 def test_generate_and_stats_from_the_command_line(tmp_path, capsys):
