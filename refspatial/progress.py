@@ -192,7 +192,7 @@ def dry_run(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int, 
     check_args(n_scenes, workers, scenes_per_shard)
     out_dir = Path(out_dir)
     if out_dir.is_dir():
-        check_existing(out_dir, recipe, base_seed, scenes_per_shard)
+        check_existing(out_dir, recipe, base_seed, scenes_per_shard, n_scenes)
     jobs = plan_jobs(out_dir, recipe, catalogue, n_scenes, base_seed, scenes_per_shard)
     done = [s for job in jobs if (s := complete(job)) is not None]
     n_cal = min(calibrate_scenes, n_scenes)

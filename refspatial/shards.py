@@ -25,6 +25,7 @@ from .executors import Executor, ShardResult, local_executor
 from .manifest import MANIFEST, ManifestError, build_manifest, read_manifest
 from .run_errors import RunError, RunFailed
 from .atomic import write_json
+from .counted import counted
 from .shard_job import SceneTick, ShardJob, complete, read_sidecar
 # Also importable from here, where they lived before one shard's code moved to shard_job.
 from .shard_job import FORMAT, FORMAT_VERSION, OnScene, WriterFactory, one_line, run_shard  # noqa: F401
@@ -87,7 +88,7 @@ def run_lock(out_dir: Path) -> Iterator[None]:
         os.close(fd)
 
 
-def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int) -> None:
+def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int, n_scenes: int) -> None:
     """Create the output folder, or check that an existing one holds this same run."""
     if (out_dir / "shards").is_file():
         raise RunError(f"--out {out_dir} holds a file named shards where the shards folder goes; "
@@ -103,25 +104,45 @@ def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_sh
         probe.unlink()
     except OSError as exc:
         raise RunError(f"cannot write to {out_dir} ({exc.strerror}); choose another --out") from None
-    check_existing(out_dir, recipe, base_seed, scenes_per_shard)
+    check_existing(out_dir, recipe, base_seed, scenes_per_shard, n_scenes)
 
 
-def check_existing(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int) -> None:
-    """Refuse a folder that holds (part of) a run with another recipe, seed or shard size."""
+def check_existing(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int, n_scenes: int) -> None:
+    """Refuse a folder that holds (part of) a run with another recipe, seed or shard size, or
+    more scenes than asked for (shards beyond the plan would be left outside the manifest)."""
     mine = {"recipe_hash": recipe.hash, "base_seed": base_seed, "scenes_per_shard": scenes_per_shard}
     for theirs in _existing_runs(out_dir, scenes_per_shard):
-        if {k: theirs.get(k) for k in mine} != mine:
-            raise RunError(
-                f"{out_dir} already holds a dataset made with {theirs}; use another --out, "
-                "or the same --recipe/--seed/--scenes-per-shard to extend or resume it"
-            )
+        for key in (k for k in mine if theirs.get(k) != mine[k]):
+            what, fix = _differs(key, theirs, mine[key], recipe)
+            raise RunError(f"{out_dir / theirs['source']} says its {theirs['what']} was made with {what}; "
+                           f"use another --out, or {fix} to extend or resume it")
+    beyond = _scenes_on_disk(out_dir, scenes_per_shard)
+    if beyond > n_scenes:
+        raise RunError(f"{out_dir} already holds {counted(beyond, 'scene')}, more than --scenes {n_scenes}; pass "
+                       f"--scenes {beyond} (or more) to resume or extend it, or use another --out for fewer")
+
+
+def _differs(key: str, theirs: dict, mine: object, recipe: Recipe) -> tuple[str, str]:
+    """One setting of an existing run that differs from this run's: (both values, the flag that fits)."""
+    if key == "base_seed":
+        return f"--seed {theirs[key]}, not --seed {mine}", f"--seed {theirs[key]}"
+    if key == "scenes_per_shard":
+        if theirs[key] == -1:  # a sidecar whose range fits no single size
+            return f"another --scenes-per-shard than {mine}", "its --scenes-per-shard"
+        return (f"--scenes-per-shard {theirs[key]}, not --scenes-per-shard {mine}",
+                f"--scenes-per-shard {theirs[key]}")
+    fix = "the recipe (and --assets, --asset-share) that made it"
+    if theirs.get("recipe") and theirs["recipe"] != recipe.name:
+        return f"recipe {theirs['recipe']}, not {recipe.name}", fix
+    return (f"recipe hash {str(theirs[key])[:12]}, not {str(mine)[:12]} (recipe {recipe.name}'s file, a recipe it "
+            "extends, --assets or --asset-share differ)", fix)
 
 
 def _existing_runs(out_dir: Path, scenes_per_shard: int) -> Iterator[dict]:
     """What the manifest, or failing that each sidecar of an unfinished run, says made them.
     A damaged manifest counts as none: the sidecars say the same, and the run rewrites it."""
     try:
-        yield read_manifest(out_dir)
+        yield {**read_manifest(out_dir), "source": MANIFEST, "what": "dataset"}
         return
     except (ManifestError, FileNotFoundError):
         pass
@@ -130,7 +151,20 @@ def _existing_runs(out_dir: Path, scenes_per_shard: int) -> Iterator[dict]:
         if side is None or "scenes" not in side:
             continue
         spp = _shard_size(int(path.stem.split("-")[1]), *side["scenes"], scenes_per_shard)
-        yield {"recipe_hash": side.get("recipe_hash"), "base_seed": side.get("base_seed"), "scenes_per_shard": spp}
+        yield {"recipe_hash": side.get("recipe_hash"), "base_seed": side.get("base_seed"), "scenes_per_shard": spp,
+               "source": f"shards/{path.name}", "what": "shard"}
+
+
+def _scenes_on_disk(out_dir: Path, scenes_per_shard: int) -> int:
+    """One past the last scene any shard file in ``out_dir`` holds, as far as sidecars and names tell."""
+    stops = [0]
+    for path in (out_dir / "shards").glob("shard-*.*"):
+        index = path.stem.split("-")[1]
+        if path.suffix == ".json" and (side := read_sidecar(path)) and isinstance(side.get("scenes"), list):
+            stops.append(int(side["scenes"][1]))
+        elif path.suffix == ".mcap" and index.isdigit():
+            stops.append(int(index) * scenes_per_shard + 1)  # its first scene, at least
+    return max(stops)
 
 
 def _shard_size(index: int, start: int, stop: int, expected: int) -> int:
@@ -156,7 +190,7 @@ def generate(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int,
     """
     check_args(n_scenes, workers, scenes_per_shard)
     out_dir = Path(out_dir)
-    prepare_out_dir(out_dir, recipe, base_seed, scenes_per_shard)
+    prepare_out_dir(out_dir, recipe, base_seed, scenes_per_shard, n_scenes)
     jobs = plan_jobs(out_dir, recipe, catalogue, n_scenes, base_seed, scenes_per_shard)
     with run_lock(out_dir):
         remove_partials(out_dir)  # of a run killed before it could clean up

@@ -127,7 +127,7 @@ def test_a_different_run_into_the_same_folder_is_refused(tiny, catalogue, tmp_pa
 
     out = tmp_path / "ds"
     generate(out, tiny, catalogue, n_scenes=1, base_seed=1, workers=1, scenes_per_shard=2)
-    with pytest.raises(RunError, match="already holds a dataset"):
+    with pytest.raises(RunError, match="manifest.json says its dataset was made with --seed 1, not --seed 2; "):
         generate(out, tiny, catalogue, n_scenes=1, base_seed=2, workers=1, scenes_per_shard=2)
 
 

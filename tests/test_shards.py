@@ -153,10 +153,39 @@ def test_an_unfinished_run_of_another_seed_or_shard_size_is_refused(tiny_dataset
     out = tmp_path / "unfinished"
     shutil.copytree(tiny_dataset, out)
     (out / "manifest.json").unlink()  # only the sidecars say what made the shards
-    with pytest.raises(RunError, match="already holds"):
+    with pytest.raises(RunError, match=r"shard-00000.json says its shard was made with --seed 7, not --seed 8; "):
         generate(out, tiny, catalogue, n_scenes=8, base_seed=8, scenes_per_shard=3)
-    with pytest.raises(RunError, match="already holds"):
+    with pytest.raises(RunError, match="made with --scenes-per-shard 3, not --scenes-per-shard 4; .* or "
+                                       "--scenes-per-shard 3 to extend or resume it"):
         generate(out, tiny, catalogue, n_scenes=8, base_seed=7, scenes_per_shard=4)
+
+
+def test_a_run_of_another_recipe_names_both_recipes_not_the_whole_manifest(tiny_dataset, catalogue, tmp_path):
+    from refspatial.recipe import load_recipe
+
+    out = tmp_path / "theirs"
+    shutil.copytree(tiny_dataset, out)
+    other = tmp_path / "other.yaml"
+    other.write_text(f"extends: {TINY}\nname: other\n")
+    renamed = tmp_path / "renamed.yaml"  # the same name, other content: only the hashes tell
+    renamed.write_text(f"extends: {TINY}\nname: tiny\nquestions: {{per_view: 5}}\n")
+    for recipe, needle in ((other, "made with recipe tiny, not other; "), (renamed, "made with recipe hash ")):
+        with pytest.raises(RunError) as refused:
+            generate(out, load_recipe(str(recipe)), catalogue, n_scenes=8, base_seed=7, scenes_per_shard=3)
+        message = str(refused.value)
+        assert needle in message and "\n" not in message and len(message) < 400, message
+
+
+@pytest.mark.parametrize("n_scenes", [2, 5, 7])
+def test_shrinking_a_run_is_refused_and_keeps_every_shard(tiny_dataset, tiny, catalogue, tmp_path, n_scenes):
+    out = tmp_path / "shrink"
+    shutil.copytree(tiny_dataset, out)
+    with pytest.raises(RunError, match=f"holds 8 scenes, more than --scenes {n_scenes}; pass --scenes 8 "):
+        generate(out, tiny, catalogue, n_scenes=n_scenes, base_seed=7, scenes_per_shard=3)
+    same_files(out, tiny_dataset)
+    (out / "manifest.json").unlink()  # an unfinished run: its sidecars tell the same
+    with pytest.raises(RunError, match="holds 8 scenes"):
+        generate(out, tiny, catalogue, n_scenes=n_scenes, base_seed=7, scenes_per_shard=3)
 
 
 def test_two_runs_into_one_folder_are_refused(tiny, catalogue, tmp_path):
