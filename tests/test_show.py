@@ -9,8 +9,9 @@ import pytest
 from refspatial.assets import load_catalogue
 from refspatial.recipe import load_recipe
 from refspatial.shards import generate
-from refspatial.show import (GAP_PX, PANEL_WIDTH_PX, QA_COLORS, ShowError, add_cli, choose_qa, free_region_mask,
-                             read_record, render_record)
+from refspatial.show import add_cli, choose_qa, read_record, render_record
+from refspatial.show_layout import GAP_PX, PANEL_WIDTH_PX, QA_COLORS, ShowError
+from refspatial.show_overlay import free_region_mask
 
 from conftest import TINY
 
@@ -162,11 +163,11 @@ def test_a_free_region_and_marks_are_drawn(sample, tmp_path):
 
 def test_steps_of_the_other_view_are_not_drawn_here():
     """A multi-view trace: Position steps follow the program's unique nodes, whose view says which image."""
-    from refspatial.show import _step_views
+    from refspatial.show_overlay import step_views
 
     qa = {"steps": [{"op": "unique", "view": "other", "result": 3}, {"op": "relate"},
                     {"op": "unique", "view": "other", "result": 1}, {"op": "unique", "result": 1}],
           "reasoning_steps": [{"kind": "Position", "point": [0.1, 0.1]}, {"kind": "Size", "value": 0.1},
                               {"kind": "Position", "point": [0.2, 0.2]}, {"kind": "Position", "point": [0.3, 0.3]},
                               {"kind": "Position", "point": [0.4, 0.4]}]}
-    assert [v for _, v in _step_views(qa)] == ["other", "self", "other", "self", "self"]
+    assert [v for _, v in step_views(qa)] == ["other", "self", "other", "self", "self"]
