@@ -16,6 +16,12 @@ def partial_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.partial")
 
 
+def file_in_the_way(folder: Path) -> Path | None:
+    """The first of ``folder`` and its parents that exists but is not a folder: a mkdir there
+    fails with "File exists" or "Not a directory", which names neither the file nor the fix."""
+    return next((p for p in (folder, *folder.parents) if p.exists() and not p.is_dir()), None)
+
+
 @contextmanager
 def replacing(path: Path) -> Iterator[Path]:
     """Yield the partial path to write; on success it replaces ``path``, on any error it goes."""

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Iterator, Protocol
 from .executors import Executor, ShardResult, local_executor
 from .manifest import MANIFEST, ManifestError, build_manifest, read_manifest
 from .run_errors import RunError, RunFailed
-from .atomic import write_json
+from .atomic import file_in_the_way, write_json
 from .counted import counted
 from .shard_job import SceneTick, ShardJob, complete, read_sidecar
 # Also importable from here, where they lived before one shard's code moved to shard_job.
@@ -93,10 +93,9 @@ def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_sh
     if (out_dir / "shards").is_file():
         raise RunError(f"--out {out_dir} holds a file named shards where the shards folder goes; "
                        "move it away or choose another --out")
-    for path in (out_dir, *out_dir.parents):
-        if path.exists() and not path.is_dir():
-            where = "" if path == out_dir else f": {path}"
-            raise RunError(f"--out {out_dir}{where} is a file, not a folder; choose another --out")
+    if (path := file_in_the_way(out_dir)) is not None:
+        where = "" if path == out_dir else f": {path}"
+        raise RunError(f"--out {out_dir}{where} is a file, not a folder; choose another --out")
     try:
         (out_dir / "shards").mkdir(parents=True, exist_ok=True)
         probe = out_dir / ".write-test"

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import file_in_the_way, replacing
 from .show_layout import (BACKGROUND_RGB, CHAR_PX, DEFAULT_QA, DPI, LABEL_PX, LINE_PX, PAD_PX, PANEL_WIDTH_PX,
                           QA_COLORS, TEXT_PX, TITLE_PX, Layout, ShowError, axes, pt)
 from .show_overlay import annotate, inside_point, step_views, with_marks, zoom_box
@@ -104,8 +105,14 @@ def render_record(sample: dict, qa_indices: list[int], out: Path, zoom: bool = F
         if bullet:
             fig.text(PAD_PX / fw, y, "\u25cf", color=bullet, fontsize=pt(TEXT_PX + 2), va="center")
         fig.text((PAD_PX + 24) / fw, y, line, fontsize=pt(TEXT_PX), va="center", fontweight="bold" if bullet else None)
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=DPI, metadata={"Software": None}, pil_kwargs={"compress_level": 9})
+    if (blocker := file_in_the_way(Path(out).parent)) is not None:
+        raise ShowError(f"--out {out}: {blocker} is a file, not a folder; choose another path")
+    try:
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        with replacing(Path(out)) as tmp:
+            fig.savefig(tmp, format="png", dpi=DPI, metadata={"Software": None}, pil_kwargs={"compress_level": 9})
+    except OSError as e:
+        raise ShowError(f"--out {out}: cannot write it ({e.strerror or e}); choose another path") from None
     return lay
 
 

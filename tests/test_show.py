@@ -1,6 +1,8 @@
 """`refspatial show`: layout, markers where the answers are, index errors, determinism."""
 
 import argparse
+import errno
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -126,6 +128,35 @@ def test_command_writes_the_png(dataset, tmp_path, capsys):
     bad = parser.parse_args(["show", str(dataset), "--record", "0", "--out", str(tmp_path / "x.jpg")])
     with pytest.raises(ShowError, match=r"\.png"):
         bad.func(bad)
+
+
+@pytest.mark.parametrize("where, needle", [("file/r.png", "file is a file, not a folder"),
+                                           ("folder.png", "cannot write it (Is a directory)")])
+def test_an_out_that_cannot_be_written_is_one_line_and_exit_2(dataset, tmp_path, capsys, where, needle):
+    from refspatial.cli import main
+
+    (tmp_path / "file").write_text("precious")
+    (tmp_path / "folder.png").mkdir()
+    assert main(["show", str(dataset), "--record", "0", "--out", str(tmp_path / where)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err, err
+    assert (tmp_path / "file").read_text() == "precious"
+
+
+def test_a_full_disk_leaves_the_old_png_whole_and_no_partial_file(sample, tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    out = tmp_path / "r.png"
+    out.write_bytes(b"the old picture")
+
+    def half_then_full(self, path, **kw):
+        Path(path).write_bytes(b"\x89PNG half")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Figure, "savefig", half_then_full)
+    with pytest.raises(ShowError, match=r"cannot write it \(No space left on device\); choose another path"):
+        render_record(sample, [0], out)
+    assert out.read_bytes() == b"the old picture" and sorted(tmp_path.iterdir()) == [out]
 
 
 def test_free_mask_decodes_and_must_fit_the_image():
