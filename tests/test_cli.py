@@ -81,6 +81,31 @@ def test_a_run_refused_before_it_starts_prints_one_line_and_no_summary(where, ne
     assert (tmp_path / "file").read_text() == (tmp_path / "holder" / "shards").read_text() == "precious"
 
 
+def test_verify_refuses_a_negative_max_failures_and_counts_in_words(tmp_path, capsys):
+    out = tmp_path / "ds"
+    assert main(["generate", "--scenes", "1", "--recipe", str(TINY), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    with pytest.raises(SystemExit) as refused:  # argparse: usage and the error, exit 2
+        main(["verify", str(out), "--max-failures", "-1"])
+    assert refused.value.code == 2 and "expected a number >= 0, got -1" in capsys.readouterr().err
+    assert main(["verify", str(out), "--max-failures", "0"]) == 0
+    assert capsys.readouterr().out.startswith("verified 1 shard, 2 records, ")
+
+
+def test_a_rerun_that_made_nothing_says_so(tmp_path, capsys):
+    out = tmp_path / "ds"
+    args = ["generate", "--scenes", "3", "--scenes-per-shard", "2", "--recipe", str(TINY), "--out", str(out),
+            "--workers", "1", "--quiet"]
+    assert main(args) == 0
+    first = capsys.readouterr().out
+    assert first.startswith("wrote ") and "from 3 scenes" in first
+    assert main(args) == 0
+    assert capsys.readouterr().out.startswith(f"nothing to do: {out} already holds ")
+    for path in (out / "shards").glob("shard-00001.*"):
+        path.unlink()
+    assert main(args) == 0
+    assert capsys.readouterr().out.startswith(f"made 1 of 3 scenes; {out} now holds ")
+
+
 def test_generate_and_stats_from_the_command_line(tmp_path, capsys):
     out = tmp_path / "ds"
     assert main(["generate", "--scenes", "2", "--recipe", str(TINY), "--out", str(out), "--workers", "1", "--quiet"]) == 0

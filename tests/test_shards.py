@@ -265,4 +265,22 @@ def test_progress_on_a_terminal_redraws_one_bar_as_scenes_finish():
     assert 2 <= len(counts) < 10, "redrawn as scenes finish, but not for every one"
     assert counts == sorted(counts) and 40 < counts[-1] <= 50 and "ETA" in text
     assert "\r\x1b[Kdone: 10 scenes (1 error skipped)" in text and "40 scenes were already on disk" in text
-    assert text.rstrip("\n").splitlines()[-1].startswith("warning: 1 scenes raised an error")
+    assert text.rstrip("\n").splitlines()[-1].startswith("warning: 1 scene raised an error")
+
+
+def test_progress_counts_one_of_a_thing_in_the_singular_and_a_run_never_started_says_nothing():
+    stream = io.StringIO()
+    RunProgress(stream, tty=False, clock=Clock(1.0)).close(finished=False)  # refused before it started
+    assert stream.getvalue() == ""
+    p = RunProgress(stream, tty=False, clock=Clock(1.0))
+    p.start(3, 1, 3, 1)
+    p.shard(summary(1, 1, 2))
+    p.scene(SceneTick(2, 2, 0, 0, "error"))
+    p.shard(summary(2, 2, 3, skipped=1))
+    p.close()
+    lines = stream.getvalue().splitlines()
+    assert lines[0] == "1 of 3 shards already complete (1 scene); doing the rest"
+    assert lines[1].startswith("shard-00001: 1 scene, 1 record, 5 QA, 0 skipped")
+    assert lines[3].startswith("done: 2 scenes (1 error skipped), 1 record, 5 QA in ")
+    assert lines[3].endswith("; 1 scene was already on disk")
+    assert lines[4].startswith("warning: 1 scene raised an error;")
