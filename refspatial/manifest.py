@@ -13,7 +13,7 @@ import shlex
 import sys
 from importlib import metadata as importlib_metadata
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Iterable
 
 from . import __version__
 from .shard_job import FORMAT, FORMAT_VERSION, read_sidecar
@@ -73,8 +73,10 @@ def package_versions() -> dict[str, str]:
     return out
 
 
-def read_manifest(root: Path | str) -> dict:
-    """``root/manifest.json``, checked: a dict of the refspatial format with the fields readers use."""
+def read_manifest(root: Path | str, fields: Iterable[str] = tuple(_FIELDS),
+                  shard_fields: Iterable[str] = tuple(_SHARD_FIELDS)) -> dict:
+    """``root/manifest.json``, checked: a dict of the refspatial format with ``fields`` (the loader
+    needs fewer than stats and verify) and ``shard_fields`` in each shard entry."""
     path = Path(root) / MANIFEST
     if not path.is_file():
         if any((Path(root) / "shards").glob("shard-*.json")):
@@ -82,7 +84,7 @@ def read_manifest(root: Path | str) -> dict:
                                 f"{rebuild_hint(Path(root))}")
         raise FileNotFoundError(f"{path} not found; pass a dataset folder that `refspatial generate --out` wrote")
     try:
-        problem = manifest_problem(json.loads(path.read_text(encoding="utf-8")))
+        problem = manifest_problem(json.loads(path.read_text(encoding="utf-8")), fields, shard_fields)
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         problem = f"not readable as JSON: {' '.join(str(exc).split())}"
     if problem:
@@ -90,16 +92,19 @@ def read_manifest(root: Path | str) -> dict:
     return json.loads(path.read_text(encoding="utf-8"))
 
 
-def manifest_problem(manifest: Any) -> str | None:
+def manifest_problem(manifest: Any, fields: Iterable[str] = tuple(_FIELDS),
+                     shard_fields: Iterable[str] = tuple(_SHARD_FIELDS)) -> str | None:
     """What makes ``manifest`` unusable, in a few words; None when it is a usable manifest."""
     if not isinstance(manifest, dict):
         return f"a JSON {type(manifest).__name__}, not an object"
     if (manifest.get("format"), manifest.get("format_version")) != (FORMAT, FORMAT_VERSION):
-        return f"format {manifest.get('format')!r} version {manifest.get('format_version')!r}, " \
-               f"expected {FORMAT!r} version {FORMAT_VERSION}"
-    wrong = _wrong_fields(manifest, _FIELDS, "")
-    for i, shard in enumerate(manifest["shards"] if not wrong else []):
-        wrong += _wrong_fields(shard, _SHARD_FIELDS, f"shards[{i}].") if isinstance(shard, dict) else [f"shards[{i}]"]
+        return (f"format {manifest.get('format')!r} format_version {manifest.get('format_version')!r}, "
+                f"expected {FORMAT!r} {FORMAT_VERSION}")
+    wrong = _wrong_fields(manifest, {k: _FIELDS[k] for k in fields}, "")
+    shards = manifest.get("shards") if isinstance(manifest.get("shards"), list) else []
+    for i, shard in enumerate(shards):
+        wrong += (_wrong_fields(shard, {k: _SHARD_FIELDS[k] for k in shard_fields}, f"shards[{i}].")
+                  if isinstance(shard, dict) else [f"shards[{i}]"])
     return f"missing or mistyped: {', '.join(wrong[:3])}{' ...' if len(wrong) > 3 else ''}" if wrong else None
 
 

@@ -74,3 +74,13 @@ def test_a_full_disk_while_the_manifest_is_written_keeps_the_old_one(tiny_datase
     monkeypatch.undo()
     assert main([*RERUN, "--out", str(out)]) == 0
     same_files(out, tiny_dataset)
+
+
+def test_the_loader_and_exports_say_the_same_about_a_damaged_manifest(damaged, tmp_path, capsys):
+    from refspatial.data import RefSpatialDataset
+
+    with pytest.raises(ValueError, match="manifest.json is damaged .* it rebuilds manifest.json"):
+        RefSpatialDataset(damaged)
+    assert main(["export", "parquet", str(damaged), str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "manifest.json is damaged" in err, err
