@@ -21,7 +21,7 @@ from .annotate import rle_decode
 from .questions.common import SIZE_MEASURES, _size_step
 from .questions.program import ProgramError, count_steps, execute, is_degenerate
 from .manifest import read_manifest
-from .records import ShardReader, sha256_file
+from .records import ShardError, ShardReader, sha256_file
 from .relations import ViewFacts
 from .relations.stored import facts_from_record
 
@@ -52,10 +52,33 @@ def verify(root: Path) -> Report:
             continue
         if sha256_file(path) != shard["sha256"]:
             report.fail(shard["file"], "sha256 differs from manifest.json")
+            _name_damaged_records(shard["file"], path, report)
             continue
         for scene in _scenes(ShardReader(path)):
             _verify_scene(shard["file"], scene, report)
     return report
+
+
+def _name_damaged_records(file: str, path: Path, report: Report) -> None:
+    """Which records of a changed shard no longer read back (each chunk has its own CRC), so the
+    failure names them, not only the shard; the shard's index itself may be what broke."""
+    try:
+        reader = ShardReader(path)
+        keys = reader.keys()
+    except ShardError as exc:
+        report.fail(file, f"unreadable: {_cause(exc)}")
+        return
+    for i, key in enumerate(keys):
+        try:
+            reader.read(i)
+        except ShardError as exc:
+            report.fail(f"{file} record {i} ({key})", _cause(exc))
+
+
+def _cause(exc: ShardError) -> str:
+    """A ShardError's problem without the path and advice around it (the failure line has both)."""
+    text = str(exc)
+    return text[text.find(": ") + 2:text.rfind("; delete it")] if "; delete it" in text else text
 
 
 def _scenes(reader: ShardReader) -> Iterator[list[dict]]:
