@@ -119,6 +119,23 @@ def test_generate_and_stats_from_the_command_line(tmp_path, capsys):
     assert "QA per predicate" in text and "objects per category" in text
 
 
+def test_stats_warns_of_a_shard_whose_checksum_differs_from_its_sidecar(tiny_dataset, tmp_path, capsys):
+    import shutil
+
+    out = tmp_path / "changed"
+    shutil.copytree(tiny_dataset, out)
+    sidecar = out / "shards" / "shard-00001.json"
+    side = json.loads(sidecar.read_text())
+    sidecar.write_text(json.dumps({**side, "sha256": "0" * 64}))  # as if the file changed after it
+    assert main(["stats", str(out), "--json"]) == 0
+    stats = json.loads(capsys.readouterr().out)
+    assert len(stats["integrity"]) == 1
+    assert "shard-00001.mcap: sha256 " in stats["integrity"][0] and "differs from its sidecar's 000000000000" in \
+        stats["integrity"][0]
+    assert main(["stats", str(out)]) == 0
+    assert "\nwarning: " + stats["integrity"][0] in capsys.readouterr().out
+
+
 def test_stats_over_several_folders_adds_them_up(tmp_path, capsys):
     """One audit over several datasets (one per scene family): counts add, rejections stay per recipe."""
     a, b = tmp_path / "a", tmp_path / "b"
