@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import os
 import sys
@@ -69,7 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("verify", help="re-execute every stored program and check every answer and checksum")
     v.add_argument("dir", type=Path, help="dataset folder (holds manifest.json)")
-    v.add_argument("--max-failures", type=int, default=50, help="failures to list; all are counted (default: 50)")
+    v.add_argument("--max-failures", type=_nonnegative, default=50,
+                   help="failures to list; all are counted (default: 50)")
 
     from .export import add_cli as add_export_cli
     from .show import add_cli as add_show_cli
@@ -110,9 +112,10 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .records import ShardError
     from .shards import RunError
     from .library import LibraryError
+    from .manifest import ManifestError
 
     return (LibraryError, RecipeError, CatalogueError, RunError, ShardError, ExportError, ReportError, ShowError,
-            FileNotFoundError, NotADirectoryError)
+            ManifestError, FileNotFoundError, NotADirectoryError)
 
 
 def _generate(args: argparse.Namespace) -> int:
@@ -139,7 +142,9 @@ def _generate(args: argparse.Namespace) -> int:
         print(format_plan(dry_run(args.out, recipe, catalogue, args.scenes, args.seed, args.workers,
                                   args.scenes_per_shard, args.calibrate, None if executor else os.cpu_count())))
         return 0
-    progress, manifest, failed = None if args.quiet else RunProgress(), None, None
+    damaged = _damaged_manifest(args.out)
+    # Quiet runs keep their progress off the terminal but still count what they made.
+    progress, manifest, failed = RunProgress(io.StringIO() if args.quiet else None), None, None
     with sigterm_as_interrupt():
         try:
             manifest = generate(args.out, recipe, catalogue, args.scenes, args.seed, args.workers,
@@ -147,14 +152,42 @@ def _generate(args: argparse.Namespace) -> int:
         except RunFailed as exc:
             failed = exc
         finally:
-            if progress:
-                progress.close(finished=manifest is not None)
+            progress.close(finished=manifest is not None)
     if failed:
         print(f"refspatial: error: {failed}", file=sys.stderr)
         return 1
-    print(f"wrote {manifest['records']} records, {manifest['qa']} QA from {manifest['scenes']} scenes "
-          f"({manifest['rejected']['count']} rejected) to {args.out}")
+    if damaged:
+        print(f"refspatial: {args.out / 'manifest.json'} was damaged ({damaged}); rebuilt it from the shards' sidecars",
+              file=sys.stderr)
+    print(_outcome(manifest, progress.scenes, args.out))
     return 0
+
+
+def _outcome(manifest: dict, made: int, out: Path) -> str:
+    """What the folder holds now, and how much of it this run made."""
+    from .counted import counted
+
+    holds = (f"{counted(manifest['records'], 'record')}, {manifest['qa']} QA from {counted(manifest['scenes'], 'scene')} "
+             f"({manifest['rejected']['count']} rejected)")
+    if made == manifest["scenes"]:
+        return f"wrote {holds} to {out}"
+    if made == 0:
+        return f"nothing to do: {out} already holds {holds}"
+    return f"made {made} of {counted(manifest['scenes'], 'scene')}; {out} now holds {holds}"
+
+
+def _damaged_manifest(out: Path) -> str | None:
+    """What is wrong with ``out``'s manifest when one is there but unusable (a run rebuilds it)."""
+    from .manifest import MANIFEST, manifest_problem
+
+    try:
+        text = (out / MANIFEST).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None  # none there (or unreadable: the run's own checks say so)
+    try:
+        return manifest_problem(json.loads(text))
+    except json.JSONDecodeError:
+        return "not valid JSON"
 
 
 def _stats(args: argparse.Namespace) -> int:
@@ -200,15 +233,16 @@ def _scene(args: argparse.Namespace) -> int:
 
 
 def _verify(args: argparse.Namespace) -> int:
+    from .counted import counted
     from .verify import verify
 
     report = verify(args.dir)
     for line in report.failures[: args.max_failures]:
         print(f"FAIL {line}")
     if len(report.failures) > args.max_failures:
-        print(f"... and {len(report.failures) - args.max_failures} more failures")
-    print(f"verified {report.shards} shards, {report.records} records, {report.qa} QA: "
-          f"{len(report.failures)} failures")
+        print(f"... and {counted(len(report.failures) - args.max_failures, 'more failure')}")
+    print(f"verified {counted(report.shards, 'shard')}, {counted(report.records, 'record')}, {report.qa} QA: "
+          f"{counted(len(report.failures), 'failure')}")
     return 1 if report.failures else 0
 
 

@@ -13,7 +13,6 @@ so the blocks never overlap beyond that padding and never miss a record (without
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Sequence
@@ -157,17 +156,12 @@ def _worker() -> tuple[int, int]:
 def load_manifest(root: Path | str, verify: bool = False) -> tuple[ShardEntry, ...]:
     """Shard entries of ``root/manifest.json``; checks that each file exists and, with
     ``verify``, that its sha256 matches (reads every byte)."""
+    from refspatial.manifest import read_manifest
+
     path = Path(root) / MANIFEST
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found; point root at a dataset folder written by "
-                                "`refspatial generate` (it holds manifest.json and shards/)")
-    try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"{path} is not valid JSON ({e}); rebuild the manifest") from None
-    if manifest.get("format") != FORMAT or manifest.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{path}: format/format_version must be {FORMAT!r}/{FORMAT_VERSION}; got "
-                         f"{manifest.get('format')!r}/{manifest.get('format_version')!r}")
+    # Missing: FileNotFoundError; damaged: a ValueError saying how to rebuild it. The loader
+    # needs only each shard's file and record count.
+    manifest = read_manifest(root, fields=("shards",), shard_fields=("file", "records"))
     entries = tuple(_entry(path, i, s) for i, s in enumerate(manifest.get("shards", [])))
     for e in entries:
         if not e.path.is_file():

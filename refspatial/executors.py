@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Iterator, Protocol, Sequence
 
-from .shards import OnScene, RunError, SceneTick, ShardJob, one_line, run_shard
+from .run_errors import RunError
+from .shard_job import OnScene, SceneTick, ShardJob, one_line, run_shard
 
 ShardFn = Callable[[ShardJob, "OnScene | None"], dict]
 RAY_EXTRA = "pip install -e '.[ray]' in the refspatial checkout"

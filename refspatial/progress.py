@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, TextIO
 
+from .counted import counted
 from .shards import SceneTick, ShardJob, check_args, check_existing, complete, plan_jobs, run_shard
 
 if TYPE_CHECKING:
@@ -67,14 +68,15 @@ class RunProgress:
         self.failures: list[str] = []
         self.t0 = self.drawn = 0.0
         self.live = False  # a bar line is on screen, unfinished
+        self.started = False  # a run refused before it starts has nothing to sum up
 
     def start(self, total_scenes: int, done_scenes: int, total_shards: int, done_shards: int) -> None:
         self.total, self.before = total_scenes, done_scenes
         self.shards_total, self.shards_done = total_shards, done_shards
-        self.t0 = self.clock()
+        self.t0, self.started = self.clock(), True
         if done_shards:
             rest = "doing the rest" if done_shards < total_shards else "nothing left to do"
-            self._line(f"{done_shards} of {total_shards} shards already complete ({done_scenes} scenes); {rest}")
+            self._line(f"{done_shards} of {counted(total_shards, 'shard')} already complete ({counted(done_scenes, 'scene')}); {rest}")
 
     def scene(self, tick: SceneTick) -> None:
         shard = self.open.setdefault(tick.shard, _Shard())
@@ -96,7 +98,7 @@ class RunProgress:
         if self.tty:
             self._draw()
         else:
-            self._line(f"{Path(summary['file']).stem}: {b - a} scenes, {summary['records']} records, "
+            self._line(f"{Path(summary['file']).stem}: {counted(b - a, 'scene')}, {counted(summary['records'], 'record')}, "
                        f"{summary['qa']} QA, {len(summary['skipped'])} skipped | {self._status()}")
 
     def failed(self, name: str, reason: str) -> None:
@@ -104,17 +106,19 @@ class RunProgress:
         self._line(f"{name} FAILED: {reason}")
 
     def close(self, finished: bool = True) -> None:
-        """The summary line; call it however the run ended."""
+        """The summary line; call it however the run ended (a run that never started has none)."""
+        if not self.started:
+            return
         elapsed = max(self.clock() - self.t0, 1e-9)
         skipped = ", ".join(f"{n} {r}" for r, n in sorted(self.skipped.items()))
-        text = (f"{'done' if finished else 'stopped'}: {self.scenes} scenes"
-                f"{f' ({skipped} skipped)' if skipped else ''}, {self.records} records, {self.qa} QA "
+        text = (f"{'done' if finished else 'stopped'}: {counted(self.scenes, 'scene')}"
+                f"{f' ({skipped} skipped)' if skipped else ''}, {counted(self.records, 'record')}, {self.qa} QA "
                 f"in {duration(elapsed)} ({self.scenes / elapsed:.2f} scenes/s, {self.qa / elapsed:.1f} QA/s)")
         if self.before:
-            text += f"; {self.before} scenes were already on disk"
+            text += f"; {counted(self.before, 'scene')} {'was' if self.before == 1 else 'were'} already on disk"
         self._line(text, redraw=False)
         if self.skipped.get("error"):
-            self._line(f"warning: {self.skipped['error']} scenes raised an error; their messages are in "
+            self._line(f"warning: {counted(self.skipped['error'], 'scene')} raised an error; their messages are in "
                        "manifest.json under rejected.scenes", redraw=False)
 
     def _count(self, scenes: int, records: int, qa: int) -> None:
@@ -189,7 +193,7 @@ def dry_run(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int, 
     check_args(n_scenes, workers, scenes_per_shard)
     out_dir = Path(out_dir)
     if out_dir.is_dir():
-        check_existing(out_dir, recipe, base_seed, scenes_per_shard)
+        check_existing(out_dir, recipe, base_seed, scenes_per_shard, n_scenes)
     jobs = plan_jobs(out_dir, recipe, catalogue, n_scenes, base_seed, scenes_per_shard)
     done = [s for job in jobs if (s := complete(job)) is not None]
     n_cal = min(calibrate_scenes, n_scenes)
@@ -216,10 +220,10 @@ def calibrate(recipe: Recipe, catalogue: Catalogue, base_seed: int, n: int) -> C
 def format_plan(plan: DryRun) -> str:
     """The ``--dry-run`` text: the plan, what is already done, and the estimates with their source."""
     lines = [
-        f"plan: {plan.scenes} scenes of recipe {plan.recipe} (seed {plan.base_seed}) in {plan.shards} shards "
-        f"of <= {plan.scenes_per_shard} scenes -> {plan.out_dir}",
-        f"on disk: {plan.complete_shards} complete shards ({plan.complete_scenes} scenes); "
-        f"to do: {plan.shards - plan.complete_shards} shards, {plan.todo_scenes} scenes, "
+        f"plan: {counted(plan.scenes, 'scene')} of recipe {plan.recipe} (seed {plan.base_seed}) in "
+        f"{counted(plan.shards, 'shard')} of <= {counted(plan.scenes_per_shard, 'scene')} -> {plan.out_dir}",
+        f"on disk: {counted(plan.complete_shards, 'complete shard')} ({counted(plan.complete_scenes, 'scene')}); "
+        f"to do: {counted(plan.shards - plan.complete_shards, 'shard')}, {counted(plan.todo_scenes, 'scene')}, "
         f"{plan.parallel} in parallel",
     ]
     e = plan.estimate
@@ -227,12 +231,13 @@ def format_plan(plan: DryRun) -> str:
         lines.append("estimate: none (--calibrate 0)")
         return "\n".join(lines)
     n = plan.todo_scenes
+    workers = (f"the time assumes {plan.parallel} parallel workers scale linearly" if plan.parallel > 1
+               else "the time is one worker's")
     lines += [
         f"expect: ~{n * e.records_per_scene:.0f} records, ~{n * e.qa_per_scene:.0f} QA, "
         f"~{size(n * e.bytes_per_scene)}, ~{duration(n * e.seconds_per_scene / max(plan.parallel, 1))}",
-        f"estimate source: calibration, {e.scenes} scenes of this run made in this process just now "
+        f"estimate source: calibration, {counted(e.scenes, 'scene')} of this run made in this process just now "
         f"({e.seconds_per_scene:.2f} s/scene per worker, {size(e.bytes_per_scene)}/scene, "
-        f"{e.rejected:.0%} rejected); the time assumes {plan.parallel} parallel workers scale linearly "
-        "and leaves out start-up",
+        f"{e.rejected:.0%} rejected); {workers} and leaves out start-up",
     ]
     return "\n".join(lines)

@@ -290,7 +290,11 @@ def _resolve(path: Path, seen: tuple[Path, ...]) -> dict[str, Any]:
         return own
     if not isinstance(parent_name, str):
         raise RecipeError(f"{path}: extends: expected the name of another recipe")
-    parent = _resolve(resolve_path(parent_name), seen + (path,))
+    try:
+        parent_path = resolve_path(parent_name)
+    except RecipeError as exc:  # say which file asks for the missing parent
+        raise RecipeError(f"{path}: extends: {exc}") from None
+    parent = _resolve(parent_path, seen + (path,))
     merged = dict(parent)
     for key, value in own.items():
         if isinstance(value, dict) and isinstance(parent.get(key), dict):

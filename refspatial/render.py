@@ -12,6 +12,7 @@ scenes: creating it costs more than rendering a view on a CPU rasteriser.
 
 from __future__ import annotations
 
+import atexit
 import os
 from dataclasses import dataclass
 
@@ -53,12 +54,22 @@ class _Context:
         import mujoco
 
         if cls.gl is None or width > cls.size[0] or height > cls.size[1]:
-            if cls.gl is not None:
+            if cls.gl is None:
+                atexit.register(cls.release)
+            else:
                 cls.gl.free()
             cls.size = (max(width, cls.size[0]), max(height, cls.size[1]))
             cls.gl = mujoco.GLContext(*cls.size)
         cls.gl.make_current()
         return cls.gl
+
+    @classmethod
+    def release(cls) -> None:
+        """Free the context while the interpreter is whole. Left to the destructor, OSMesa's
+        free runs after PyOpenGL's modules are torn down and prints a traceback at every exit."""
+        if cls.gl is not None:
+            cls.gl.free()
+            cls.gl, cls.size = None, (0, 0)
 
 
 def render_views(scene: Scene, materials: dict[str, MaterialSpec]) -> list[View]:

@@ -7,85 +7,36 @@ its MCAP file is renamed into place, then a small JSON sidecar with its counts
 and checksum; the manifest is rebuilt from the sidecars at the end. Running the
 same command again, after a crash, ``kill -9`` or a full disk, skips complete
 shards (checked against their checksum), deletes stale ``.partial`` files and
-redoes the rest. Where the shards run (this process, worker processes, a Ray
-cluster) is the executor's business (``executors.py``).
+redoes the rest. How one shard is made is ``shard_job.py``'s business, and where
+the shards run (this process, worker processes, a Ray cluster) the executor's
+(``executors.py``); neither imports this module.
 """
 
 from __future__ import annotations
 
 import errno
 import fcntl
-import json
 import os
-import sys
 from contextlib import contextmanager
-from dataclasses import dataclass
-from importlib import metadata as importlib_metadata
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterator, Protocol
+from typing import TYPE_CHECKING, Iterator, Protocol
 
-from . import __version__
-from .records import ShardWriter, sha256_file
-from .seeding import scene_seed
+from .executors import Executor, ShardResult, local_executor
+from .manifest import MANIFEST, ManifestError, build_manifest, read_manifest
+from .run_errors import RunError, RunFailed
+from .atomic import file_in_the_way, write_json
+from .counted import counted
+from .shard_job import SceneTick, ShardJob, complete, read_sidecar
+# Also importable from here, where they lived before one shard's code moved to shard_job.
+from .shard_job import FORMAT, FORMAT_VERSION, OnScene, WriterFactory, one_line, run_shard  # noqa: F401
 
 if TYPE_CHECKING:  # kept out of worker start-up: assets imports trimesh (~2 s)
     from .assets import Catalogue
-    from .executors import Executor, ShardResult
-    from .pipeline import SceneOutcome
     from .recipe import Recipe
 
-FORMAT = "refspatial-shards"
-FORMAT_VERSION = 1
-VERSIONED_PACKAGES = ("mujoco", "numpy", "trimesh", "manifold3d", "mcap", "opencv-python-headless")
 RERUN = "run the same command again to finish"
 # Writing can fail this way for every shard alike: stop at once rather than burn the whole plan.
 FATAL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})
-
-
-class RunError(RuntimeError):
-    """A run that cannot start; the message says what to change."""
-
-
-class RunFailed(RunError):
-    """A run that started but could not finish every shard; complete shards are kept."""
-
-
-@dataclass(frozen=True)
-class ShardJob:
-    index: int
-    start: int  # first scene index
-    stop: int  # one past the last scene index
-    out_dir: Path
-    recipe: Recipe
-    catalogue: Catalogue
-    base_seed: int
-
-    @property
-    def name(self) -> str:
-        return f"shard-{self.index:05d}"
-
-    @property
-    def mcap_path(self) -> Path:
-        return self.out_dir / "shards" / f"{self.name}.mcap"
-
-    @property
-    def sidecar_path(self) -> Path:
-        return self.out_dir / "shards" / f"{self.name}.json"
-
-
-@dataclass(frozen=True)
-class SceneTick:
-    """One scene finished inside a shard still being written: progress only, never stored."""
-
-    shard: int
-    index: int
-    records: int
-    qa: int
-    skipped: str | None  # reason slug, None when the scene made records
-
-
-OnScene = Callable[[SceneTick], None]
-WriterFactory = Callable[[Path, dict], ShardWriter]
 
 
 class Progress(Protocol):
@@ -106,105 +57,6 @@ def plan_jobs(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int
               scenes_per_shard: int) -> list[ShardJob]:
     return [ShardJob(i, a, b, out_dir, recipe, catalogue, base_seed)
             for i, (a, b) in enumerate(plan(n_scenes, scenes_per_shard))]
-
-
-def run_shard(job: ShardJob, on_scene: OnScene | None = None,
-              open_writer: WriterFactory = ShardWriter) -> dict:
-    """Generate one shard's scenes and write them; returns its summary (with timings).
-
-    A scene that fails in any way is recorded as skipped with its reason and the shard
-    goes on; only writing errors (a full disk) end the shard, leaving no file behind.
-    ``open_writer`` exists so that tests can make the disk fail.
-    """
-    seconds: dict[str, float] = {}
-    skipped, qa, records = [], 0, 0
-    with open_writer(job.mcap_path, _shard_metadata(job)) as writer:
-        for index in range(job.start, job.stop):
-            outcome = _scene(job, index)
-            for record in outcome.records:
-                writer.write(record)
-            n_qa = sum(len(r.qa) for r in outcome.records)
-            records, qa = records + len(outcome.records), qa + n_qa
-            for stage, s in outcome.seconds.items():
-                seconds[stage] = seconds.get(stage, 0.0) + s
-            if outcome.rejected:
-                skipped.append({"index": index, "seed": outcome.seed, "reason": outcome.rejected,
-                                "detail": outcome.detail})
-            if on_scene:
-                on_scene(SceneTick(job.index, index, len(outcome.records), n_qa, outcome.rejected))
-    summary = {
-        "file": f"shards/{job.name}.mcap",
-        "scenes": [job.start, job.stop],
-        "records": records,
-        "qa": qa,
-        "sha256": sha256_file(job.mcap_path),
-        "skipped": skipped,
-        "recipe_hash": job.recipe.hash,
-        "base_seed": job.base_seed,
-    }
-    _write_json(job.sidecar_path, summary)
-    return {**summary, "seconds": seconds}
-
-
-def _scene(job: ShardJob, index: int) -> SceneOutcome:
-    """generate_scene, with any exception turned into a skipped scene: one bad scene
-    (a physics blow-up, a renderer error, a bug hit by one seed) must not cost the run."""
-    from .pipeline import SceneOutcome, generate_scene
-
-    seed = scene_seed(job.base_seed, index)
-    try:
-        return generate_scene(job.recipe, job.catalogue, seed)
-    except Exception as exc:  # noqa: BLE001 - recorded with type and message, never hidden
-        return SceneOutcome(seed, rejected="error", detail=one_line(exc))
-
-
-def one_line(exc: BaseException) -> str:
-    """``Type: message`` on one line, the form errors take in sidecars and messages."""
-    text = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
-def _shard_metadata(job: ShardJob) -> dict[str, dict[str, str]]:
-    return {
-        "refspatial": {
-            "version": __version__,
-            "format": FORMAT,
-            "format_version": str(FORMAT_VERSION),
-            "recipe": job.recipe.name,
-            "recipe_hash": job.recipe.hash,
-            "catalogue_sha256": job.catalogue.sha256,
-            "base_seed": str(job.base_seed),
-            "scenes": f"{job.start}-{job.stop}",
-            **({"libraries": json.dumps(job.catalogue.libraries.manifest(), sort_keys=True)}
-               if job.catalogue.libraries is not None else {}),
-        },
-        "recipe": {"name": job.recipe.name, "yaml": job.recipe.text, "resolved_yaml": job.recipe.resolved_yaml,
-                   "resolved_json": json.dumps(job.recipe.data, sort_keys=True)},
-    }
-
-
-def _write_json(path: Path, obj: dict) -> None:
-    tmp = path.with_name(f".{path.name}.partial")
-    tmp.write_text(json.dumps(obj, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    tmp.replace(path)
-
-
-def _read_sidecar(path: Path) -> dict | None:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return None  # missing or torn: the shard is simply redone
-
-
-def complete(job: ShardJob) -> dict | None:
-    """The sidecar of a shard already on disk whose checksum still matches, else None."""
-    if not (job.sidecar_path.is_file() and job.mcap_path.is_file()):
-        return None
-    summary = _read_sidecar(job.sidecar_path)
-    if (summary is None or summary.get("scenes") != [job.start, job.stop]
-            or summary.get("recipe_hash") != job.recipe.hash or summary.get("base_seed") != job.base_seed):
-        return None
-    return summary if summary.get("sha256") == sha256_file(job.mcap_path) else None
 
 
 def remove_partials(out_dir: Path) -> list[Path]:
@@ -236,8 +88,14 @@ def run_lock(out_dir: Path) -> Iterator[None]:
         os.close(fd)
 
 
-def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int) -> None:
+def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int, n_scenes: int) -> None:
     """Create the output folder, or check that an existing one holds this same run."""
+    if (out_dir / "shards").is_file():
+        raise RunError(f"--out {out_dir} holds a file named shards where the shards folder goes; "
+                       "move it away or choose another --out")
+    if (path := file_in_the_way(out_dir)) is not None:
+        where = "" if path == out_dir else f": {path}"
+        raise RunError(f"--out {out_dir}{where} is a file, not a folder; choose another --out")
     try:
         (out_dir / "shards").mkdir(parents=True, exist_ok=True)
         probe = out_dir / ".write-test"
@@ -245,32 +103,67 @@ def prepare_out_dir(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_sh
         probe.unlink()
     except OSError as exc:
         raise RunError(f"cannot write to {out_dir} ({exc.strerror}); choose another --out") from None
-    check_existing(out_dir, recipe, base_seed, scenes_per_shard)
+    check_existing(out_dir, recipe, base_seed, scenes_per_shard, n_scenes)
 
 
-def check_existing(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int) -> None:
-    """Refuse a folder that holds (part of) a run with another recipe, seed or shard size."""
+def check_existing(out_dir: Path, recipe: Recipe, base_seed: int, scenes_per_shard: int, n_scenes: int) -> None:
+    """Refuse a folder that holds (part of) a run with another recipe, seed or shard size, or
+    more scenes than asked for (shards beyond the plan would be left outside the manifest)."""
     mine = {"recipe_hash": recipe.hash, "base_seed": base_seed, "scenes_per_shard": scenes_per_shard}
     for theirs in _existing_runs(out_dir, scenes_per_shard):
-        if {k: theirs.get(k) for k in mine} != mine:
-            raise RunError(
-                f"{out_dir} already holds a dataset made with {theirs}; use another --out, "
-                "or the same --recipe/--seed/--scenes-per-shard to extend or resume it"
-            )
+        for key in (k for k in mine if theirs.get(k) != mine[k]):
+            what, fix = _differs(key, theirs, mine[key], recipe)
+            raise RunError(f"{out_dir / theirs['source']} says its {theirs['what']} was made with {what}; "
+                           f"use another --out, or {fix} to extend or resume it")
+    beyond = _scenes_on_disk(out_dir, scenes_per_shard)
+    if beyond > n_scenes:
+        raise RunError(f"{out_dir} already holds {counted(beyond, 'scene')}, more than --scenes {n_scenes}; pass "
+                       f"--scenes {beyond} (or more) to resume or extend it, or use another --out for fewer")
+
+
+def _differs(key: str, theirs: dict, mine: object, recipe: Recipe) -> tuple[str, str]:
+    """One setting of an existing run that differs from this run's: (both values, the flag that fits)."""
+    if key == "base_seed":
+        return f"--seed {theirs[key]}, not --seed {mine}", f"--seed {theirs[key]}"
+    if key == "scenes_per_shard":
+        if theirs[key] == -1:  # a sidecar whose range fits no single size
+            return f"another --scenes-per-shard than {mine}", "its --scenes-per-shard"
+        return (f"--scenes-per-shard {theirs[key]}, not --scenes-per-shard {mine}",
+                f"--scenes-per-shard {theirs[key]}")
+    fix = "the recipe (and --assets, --asset-share) that made it"
+    if theirs.get("recipe") and theirs["recipe"] != recipe.name:
+        return f"recipe {theirs['recipe']}, not {recipe.name}", fix
+    return (f"recipe hash {str(theirs[key])[:12]}, not {str(mine)[:12]} (recipe {recipe.name}'s file, a recipe it "
+            "extends, --assets or --asset-share differ)", fix)
 
 
 def _existing_runs(out_dir: Path, scenes_per_shard: int) -> Iterator[dict]:
-    """What the manifest, or failing that each sidecar of an unfinished run, says made them."""
-    manifest = out_dir / "manifest.json"
-    if manifest.is_file():
-        yield json.loads(manifest.read_text(encoding="utf-8"))
+    """What the manifest, or failing that each sidecar of an unfinished run, says made them.
+    A damaged manifest counts as none: the sidecars say the same, and the run rewrites it."""
+    try:
+        yield {**read_manifest(out_dir), "source": MANIFEST, "what": "dataset"}
         return
+    except (ManifestError, FileNotFoundError):
+        pass
     for path in sorted((out_dir / "shards").glob("shard-*.json")):
-        side = _read_sidecar(path)
+        side = read_sidecar(path)
         if side is None or "scenes" not in side:
             continue
         spp = _shard_size(int(path.stem.split("-")[1]), *side["scenes"], scenes_per_shard)
-        yield {"recipe_hash": side.get("recipe_hash"), "base_seed": side.get("base_seed"), "scenes_per_shard": spp}
+        yield {"recipe_hash": side.get("recipe_hash"), "base_seed": side.get("base_seed"), "scenes_per_shard": spp,
+               "source": f"shards/{path.name}", "what": "shard"}
+
+
+def _scenes_on_disk(out_dir: Path, scenes_per_shard: int) -> int:
+    """One past the last scene any shard file in ``out_dir`` holds, as far as sidecars and names tell."""
+    stops = [0]
+    for path in (out_dir / "shards").glob("shard-*.*"):
+        index = path.stem.split("-")[1]
+        if path.suffix == ".json" and (side := read_sidecar(path)) and isinstance(side.get("scenes"), list):
+            stops.append(int(side["scenes"][1]))
+        elif path.suffix == ".mcap" and index.isdigit():
+            stops.append(int(index) * scenes_per_shard + 1)  # its first scene, at least
+    return max(stops)
 
 
 def _shard_size(index: int, start: int, stop: int, expected: int) -> int:
@@ -294,11 +187,9 @@ def generate(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int,
     Raises RunFailed, after every shard that could be made is on disk, when some shard
     could not be; running the same call again finishes the dataset.
     """
-    from .executors import local_executor
-
     check_args(n_scenes, workers, scenes_per_shard)
     out_dir = Path(out_dir)
-    prepare_out_dir(out_dir, recipe, base_seed, scenes_per_shard)
+    prepare_out_dir(out_dir, recipe, base_seed, scenes_per_shard, n_scenes)
     jobs = plan_jobs(out_dir, recipe, catalogue, n_scenes, base_seed, scenes_per_shard)
     with run_lock(out_dir):
         remove_partials(out_dir)  # of a run killed before it could clean up
@@ -314,7 +205,12 @@ def generate(out_dir: Path, recipe: Recipe, catalogue: Catalogue, n_scenes: int,
         if failures:
             raise RunFailed(_failure_message(failures, len(done), len(jobs)))
         manifest = build_manifest(recipe, catalogue, base_seed, scenes_per_shard, [done[j.index] for j in jobs])
-        _write_json(out_dir / "manifest.json", manifest)
+        try:
+            write_json(out_dir / MANIFEST, manifest)
+        except OSError as exc:  # every shard is on disk: only the manifest is left to write
+            fix = "free space or fix the folder's permissions, then " if exc.errno in FATAL_ERRNOS else ""
+            raise RunFailed(f"the shards are complete but {out_dir / MANIFEST} could not be written "
+                            f"({exc.strerror or one_line(exc)}); {fix}{RERUN}") from None
     return manifest
 
 
@@ -365,42 +261,3 @@ def _failure_message(failures: list[tuple[ShardJob, str, bool]], complete: int, 
     more = f"; {len(failures) - 1} more shard(s) failed" if len(failures) > 1 else ""
     fix = "free space or fix the folder's permissions (or choose another --out), then " if fatal else ""
     return f"{what}{more}; {complete} of {total} shards are complete; {fix}{RERUN}"
-
-
-def build_manifest(recipe: Recipe, catalogue: Catalogue, base_seed: int, scenes_per_shard: int,
-                   summaries: list[dict]) -> dict:
-    shards = [{k: s[k] for k in ("file", "scenes", "records", "qa", "sha256")} for s in summaries]
-    skipped = [x for s in summaries for x in s["skipped"]]
-    reasons: dict[str, int] = {}
-    for x in skipped:
-        reasons[x["reason"]] = reasons.get(x["reason"], 0) + 1
-    scenes = sum(b - a for a, b in (s["scenes"] for s in summaries))
-    return {
-        "format": FORMAT,
-        "format_version": FORMAT_VERSION,
-        "generator": {"refspatial": __version__, "python": sys.version.split()[0], "packages": package_versions()},
-        "recipe": recipe.name,
-        "recipe_hash": recipe.hash,
-        "recipe_yaml": recipe.text,
-        "recipe_resolved_yaml": recipe.resolved_yaml,  # loads on its own, parents and all
-        "catalogue_sha256": catalogue.sha256,
-        **({"libraries": catalogue.libraries.manifest()} if catalogue.libraries is not None else {}),
-        "base_seed": base_seed,
-        "scenes_per_shard": scenes_per_shard,
-        "scenes": scenes,
-        "records": sum(s["records"] for s in shards),
-        "qa": sum(s["qa"] for s in shards),
-        "rejected": {"count": len(skipped), "rate": round(len(skipped) / scenes, 4) if scenes else 0.0,
-                     "reasons": dict(sorted(reasons.items())), "scenes": skipped},
-        "shards": shards,
-    }
-
-
-def package_versions() -> dict[str, str]:
-    out = {}
-    for name in VERSIONED_PACKAGES:
-        try:
-            out[name] = importlib_metadata.version(name)
-        except importlib_metadata.PackageNotFoundError:
-            out[name] = "missing"
-    return out

@@ -9,7 +9,6 @@ Every aggregate is a plain JSON value, so ``refspatial stats --json`` and the HT
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from collections import Counter
@@ -20,7 +19,9 @@ import yaml
 
 from .image_stats import ImageTally
 from .image_stats import format_text as format_images
-from .records import ShardReader
+from .manifest import read_manifest
+from .records import ShardReader, sha256_file
+from .shard_job import read_sidecar
 
 # Answer-point histogram bins per axis. A multiple of 3, so the 3x3 balance grid is an exact
 # sum of bins; 24 still shows where on an object-sized scale points pile up.
@@ -65,10 +66,8 @@ _COUNTERS = ("qa_predicates", "relation_predicates", "qa_predicate_families", "r
 
 
 def load_manifest(root: Path) -> dict:
-    path = Path(root) / "manifest.json"
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} not found; pass the folder that `refspatial generate --out` wrote")
-    return json.loads(path.read_text(encoding="utf-8"))
+    """``root``'s manifest; a missing or damaged one is a one-line error saying how to rebuild it."""
+    return read_manifest(root)
 
 
 class _Tally:
@@ -139,9 +138,10 @@ def answer_label(qa: dict) -> str:
 def collect(*roots: Path) -> dict:
     """Statistics over one dataset folder, or over several (one per scene family) as one."""
     manifests = [load_manifest(root) for root in roots]
-    tally, images = _Tally(), ImageTally()
+    tally, images, integrity = _Tally(), ImageTally(), []
     for root, manifest in zip(roots, manifests):
         for shard in manifest["shards"]:
+            integrity += checksum_problems(Path(root), shard)
             for sample in ShardReader(Path(root) / shard["file"]).iter():
                 tally.add_record(sample)
                 images.add(sample)
@@ -177,7 +177,24 @@ def collect(*roots: Path) -> dict:
     stats["question_words"] = _by_number(stats["question_words"])
     stats["balance"] = balance_checks(stats)
     stats["warnings"] = [b["message"] for b in stats["balance"] if b["verdict"] == "warn"]
+    stats["integrity"] = integrity
     return stats
+
+
+def checksum_problems(root: Path, shard: dict) -> list[str]:
+    """A shard whose bytes differ from what its sidecar and the manifest recorded was changed
+    after it was written: its counts can no longer be trusted. Empty when both agree."""
+    path = root / shard["file"]
+    if not path.is_file():
+        return []  # the reader says so, in one line
+    actual, out = sha256_file(path), []
+    sidecar = read_sidecar(path.with_suffix(".json")) or {}
+    for what, recorded in (("its sidecar", sidecar.get("sha256")), ("manifest.json", shard.get("sha256"))):
+        if recorded is not None and recorded != actual:
+            out.append(f"{path}: sha256 {actual[:12]}... differs from {what}'s {str(recorded)[:12]}...; the file "
+                       "changed after it was written: run `refspatial verify` on it, and re-run the generate "
+                       "command to redo it")
+    return out[:1]  # one line per shard: a changed file usually differs from both
 
 
 def merge_manifests(manifests: list[dict]) -> dict:
@@ -363,4 +380,5 @@ def format_text(stats: dict) -> str:
     if "images" in stats:
         lines.extend(format_images(stats["images"]))
     lines.extend([f"warning: {w}" for w in stats.get("warnings", [])] or [NO_WARNINGS])
+    lines.extend(f"warning: {w}" for w in stats.get("integrity", []))
     return "\n".join(lines)

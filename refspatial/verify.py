@@ -13,7 +13,6 @@ recomputed from the record itself.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -21,12 +20,13 @@ from typing import Iterator
 import numpy as np
 
 from .annotate import rle_decode
+from .manifest import read_manifest
 from .questions.common import SIZE_MEASURES, _size_step
 from .questions.multiview import camera_move_askable
 from .questions.program import ProgramError, count_steps, execute, is_degenerate
 from .questions.refer import holds_anything
 from .questions.sides import SIDE_PREDICATES, side_visible
-from .records import ShardReader, sha256_file
+from .records import ShardError, ShardReader, sha256_file
 from .relations import ViewFacts
 from .relations.stored import facts_from_record
 
@@ -47,10 +47,7 @@ class Report:
 
 def verify(root: Path) -> Report:
     root = Path(root)
-    manifest_path = root / "manifest.json"
-    if not manifest_path.is_file():
-        raise FileNotFoundError(f"{manifest_path} not found; pass the folder that `refspatial generate --out` wrote")
-    manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
+    manifest = read_manifest(root)
     report = Report()
     for shard in manifest["shards"]:
         path = root / shard["file"]
@@ -60,10 +57,33 @@ def verify(root: Path) -> Report:
             continue
         if sha256_file(path) != shard["sha256"]:
             report.fail(shard["file"], "sha256 differs from manifest.json")
+            _name_damaged_records(shard["file"], path, report)
             continue
         for scene in _scenes(ShardReader(path)):
             _verify_scene(shard["file"], scene, report)
     return report
+
+
+def _name_damaged_records(file: str, path: Path, report: Report) -> None:
+    """Which records of a changed shard no longer read back (each chunk has its own CRC), so the
+    failure names them, not only the shard; the shard's index itself may be what broke."""
+    try:
+        reader = ShardReader(path)
+        keys = reader.keys()
+    except ShardError as exc:
+        report.fail(file, f"unreadable: {_cause(exc)}")
+        return
+    for i, key in enumerate(keys):
+        try:
+            reader.read(i)
+        except ShardError as exc:
+            report.fail(f"{file} record {i} ({key})", _cause(exc))
+
+
+def _cause(exc: ShardError) -> str:
+    """A ShardError's problem without the path and advice around it (the failure line has both)."""
+    text = str(exc)
+    return text[text.find(": ") + 2:text.rfind("; delete it")] if "; delete it" in text else text
 
 
 def _scenes(reader: ShardReader) -> Iterator[list[dict]]:

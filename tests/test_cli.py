@@ -108,12 +108,54 @@ def test_unwritable_output_folder(tmp_path, capsys):
     assert "cannot write" in capsys.readouterr().err
 
 
-def test_output_path_that_is_a_file(tmp_path, capsys):
-    blocker = tmp_path / "file"
-    blocker.write_text("precious")
-    assert main(["generate", "--scenes", "1", "--recipe", str(TINY), "--out", str(blocker / "ds")]) == 2
-    assert "cannot write" in capsys.readouterr().err
-    assert blocker.read_text() == "precious"
+@pytest.mark.parametrize("where, needle", [
+    ("file", "--out {file} is a file, not a folder"),
+    ("file/ds", ": {file} is a file, not a folder"),
+    ("holder", "holds a file named shards where the shards folder goes"),
+    ("busy", "another `refspatial generate` is writing to"),
+])
+def test_a_run_refused_before_it_starts_prints_one_line_and_no_summary(where, needle, tmp_path, capsys):
+    """Without --quiet: the progress summary ("stopped: 0 scenes in <uptime>") is for runs that started."""
+    import fcntl
+
+    (tmp_path / "file").write_text("precious")
+    (tmp_path / "holder").mkdir()
+    (tmp_path / "holder" / "shards").write_text("precious")
+    (tmp_path / "busy").mkdir()
+    fd = os.open(tmp_path / "busy", os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX)  # as a running `refspatial generate` holds it
+    try:
+        assert main(["generate", "--scenes", "1", "--recipe", str(TINY), "--out", str(tmp_path / where)]) == 2
+    finally:
+        os.close(fd)
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle.format(file=tmp_path / "file") in err, err
+    assert (tmp_path / "file").read_text() == (tmp_path / "holder" / "shards").read_text() == "precious"
+
+
+def test_verify_refuses_a_negative_max_failures_and_counts_in_words(tmp_path, capsys):
+    out = tmp_path / "ds"
+    assert main(["generate", "--scenes", "1", "--recipe", str(TINY), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    with pytest.raises(SystemExit) as refused:  # argparse: usage and the error, exit 2
+        main(["verify", str(out), "--max-failures", "-1"])
+    assert refused.value.code == 2 and "expected a number >= 0, got -1" in capsys.readouterr().err
+    assert main(["verify", str(out), "--max-failures", "0"]) == 0
+    assert capsys.readouterr().out.startswith("verified 1 shard, 2 records, ")
+
+
+def test_a_rerun_that_made_nothing_says_so(tmp_path, capsys):
+    out = tmp_path / "ds"
+    args = ["generate", "--scenes", "3", "--scenes-per-shard", "2", "--recipe", str(TINY), "--out", str(out),
+            "--workers", "1", "--quiet"]
+    assert main(args) == 0
+    first = capsys.readouterr().out
+    assert first.startswith("wrote ") and "from 3 scenes" in first
+    assert main(args) == 0
+    assert capsys.readouterr().out.startswith(f"nothing to do: {out} already holds ")
+    for path in (out / "shards").glob("shard-00001.*"):
+        path.unlink()
+    assert main(args) == 0
+    assert capsys.readouterr().out.startswith(f"made 1 of 3 scenes; {out} now holds ")
 
 
 def test_generate_and_stats_from_the_command_line(tmp_path, capsys):
@@ -127,6 +169,23 @@ def test_generate_and_stats_from_the_command_line(tmp_path, capsys):
     assert main(["stats", str(out)]) == 0
     text = capsys.readouterr().out
     assert "QA per predicate" in text and "objects per category" in text
+
+
+def test_stats_warns_of_a_shard_whose_checksum_differs_from_its_sidecar(tiny_dataset, tmp_path, capsys):
+    import shutil
+
+    out = tmp_path / "changed"
+    shutil.copytree(tiny_dataset, out)
+    sidecar = out / "shards" / "shard-00001.json"
+    side = json.loads(sidecar.read_text())
+    sidecar.write_text(json.dumps({**side, "sha256": "0" * 64}))  # as if the file changed after it
+    assert main(["stats", str(out), "--json"]) == 0
+    stats = json.loads(capsys.readouterr().out)
+    assert len(stats["integrity"]) == 1
+    assert "shard-00001.mcap: sha256 " in stats["integrity"][0] and "differs from its sidecar's 000000000000" in \
+        stats["integrity"][0]
+    assert main(["stats", str(out)]) == 0
+    assert "\nwarning: " + stats["integrity"][0] in capsys.readouterr().out
 
 
 def test_stats_over_several_folders_adds_them_up(tmp_path, capsys):

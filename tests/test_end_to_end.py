@@ -104,6 +104,21 @@ def test_verify_catches_a_wrong_answer(tiny_dataset, tmp_path):
     assert record["key"] in report.failures[0]
 
 
+def test_verify_names_the_damaged_records_of_a_changed_shard(tiny_dataset, tmp_path):
+    damaged = tmp_path / "damaged"
+    shutil.copytree(tiny_dataset, damaged)
+    path = damaged / "shards" / "shard-00001.mcap"
+    keys = ShardReader(path).keys()
+    raw = bytearray(path.read_bytes())
+    raw[len(raw) // 3] ^= 0xFF  # inside the first record's chunks, well before the index
+    path.write_bytes(bytes(raw))
+    failures = verify(damaged).failures
+    assert failures[0] == "shards/shard-00001.mcap: sha256 differs from manifest.json"
+    named = [f for f in failures[1:] if f.startswith("shards/shard-00001.mcap record ")]
+    assert named and len(named) == len(failures) - 1, failures
+    assert all(keys[int(f.split()[2])] in f and "CRC" in f.upper() for f in named), named
+
+
 def test_same_command_gives_identical_bytes_whatever_the_worker_count(tiny_dataset, tiny, catalogue, tmp_path):
     again = tmp_path / "again"
     generate(again, tiny, catalogue, n_scenes=8, base_seed=7, workers=1, scenes_per_shard=3)
@@ -127,7 +142,7 @@ def test_a_different_run_into_the_same_folder_is_refused(tiny, catalogue, tmp_pa
 
     out = tmp_path / "ds"
     generate(out, tiny, catalogue, n_scenes=1, base_seed=1, workers=1, scenes_per_shard=2)
-    with pytest.raises(RunError, match="already holds a dataset"):
+    with pytest.raises(RunError, match="manifest.json says its dataset was made with --seed 1, not --seed 2; "):
         generate(out, tiny, catalogue, n_scenes=1, base_seed=2, workers=1, scenes_per_shard=2)
 
 

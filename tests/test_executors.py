@@ -15,7 +15,9 @@ import pytest
 
 from refspatial.executors import InlineExecutor, ProcessExecutor, RayExecutor, choose_executor, exit_text
 from refspatial.records import sha256_file
-from refspatial.shards import RunError, SceneTick, ShardJob, generate
+from refspatial.run_errors import RunError
+from refspatial.shard_job import SceneTick, ShardJob
+from refspatial.shards import generate
 
 # Worker processes import this module to unpickle the shard functions below: keep its
 # imports light (no conftest, which loads the asset catalogue) so that workers start fast.
@@ -192,3 +194,21 @@ def test_ray_writes_the_same_bytes_as_the_local_executor(tiny, catalogue, tmp_pa
     same_files(tmp_path / "ray", tmp_path / "local")
     assert sorted(t.index for t in recorder.ticks) == list(range(4)), "per-scene ticks came through Ray"
     assert [r.summary for r in gpu] == [{"MUJOCO_GL": "egl", "LP_NUM_THREADS": "1", "CUDA_VISIBLE_DEVICES": "0"}] * 2
+
+
+def _imported_modules(path: Path) -> set[str]:
+    """Every refspatial module ``path`` imports, at the top, inside functions or for type checking."""
+    import ast
+
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.level == 1:
+            names.add(node.module or "")
+    return names
+
+
+def test_the_run_depends_on_executors_and_never_the_other_way():
+    package = Path(__file__).parent.parent / "refspatial"
+    for module in ("executors.py", "shard_job.py", "run_errors.py"):
+        assert "shards" not in _imported_modules(package / module), module
+    assert "executors" in _imported_modules(package / "shards.py")

@@ -121,3 +121,30 @@ def test_repeated_renders_are_identical(rendered, catalogue):
     again = render_views(scene, catalogue.materials)[0]
     assert np.array_equal(again.rgb, view.rgb) and np.array_equal(again.seg, view.seg)
     assert np.array_equal(again.depth_m, view.depth_m)
+
+
+SCRIPT = """
+import sys
+from refspatial.assets import load_catalogue
+from refspatial.pipeline import build_scene
+from refspatial.recipe import load_recipe
+from refspatial.render import render_views
+
+views = render_views(build_scene(load_recipe(sys.argv[1]), load_catalogue(), 1), load_catalogue().materials)
+print(views[0].rgb.shape)
+"""
+
+
+@pytest.mark.skipif(__import__("ctypes.util").util.find_library("OSMesa") is None,
+                    reason="MUJOCO_GL=osmesa needs libosmesa6 (apt-get install -y libosmesa6)")
+def test_osmesa_exits_without_a_traceback_from_the_contexts_destructor():
+    import os
+    import subprocess
+    import sys
+
+    from conftest import TINY
+
+    env = {**os.environ, "MUJOCO_GL": "osmesa", "PYOPENGL_PLATFORM": "osmesa"}
+    r = subprocess.run([sys.executable, "-c", SCRIPT, str(TINY)], capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0 and r.stdout.strip() == "(108, 192, 3)", r.stderr
+    assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr, r.stderr

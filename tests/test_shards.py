@@ -153,10 +153,39 @@ def test_an_unfinished_run_of_another_seed_or_shard_size_is_refused(tiny_dataset
     out = tmp_path / "unfinished"
     shutil.copytree(tiny_dataset, out)
     (out / "manifest.json").unlink()  # only the sidecars say what made the shards
-    with pytest.raises(RunError, match="already holds"):
+    with pytest.raises(RunError, match=r"shard-00000.json says its shard was made with --seed 7, not --seed 8; "):
         generate(out, tiny, catalogue, n_scenes=8, base_seed=8, scenes_per_shard=3)
-    with pytest.raises(RunError, match="already holds"):
+    with pytest.raises(RunError, match="made with --scenes-per-shard 3, not --scenes-per-shard 4; .* or "
+                                       "--scenes-per-shard 3 to extend or resume it"):
         generate(out, tiny, catalogue, n_scenes=8, base_seed=7, scenes_per_shard=4)
+
+
+def test_a_run_of_another_recipe_names_both_recipes_not_the_whole_manifest(tiny_dataset, catalogue, tmp_path):
+    from refspatial.recipe import load_recipe
+
+    out = tmp_path / "theirs"
+    shutil.copytree(tiny_dataset, out)
+    other = tmp_path / "other.yaml"
+    other.write_text(f"extends: {TINY}\nname: other\n")
+    renamed = tmp_path / "renamed.yaml"  # the same name, other content: only the hashes tell
+    renamed.write_text(f"extends: {TINY}\nname: tiny\nquestions: {{per_view: 5}}\n")
+    for recipe, needle in ((other, "made with recipe tiny, not other; "), (renamed, "made with recipe hash ")):
+        with pytest.raises(RunError) as refused:
+            generate(out, load_recipe(str(recipe)), catalogue, n_scenes=8, base_seed=7, scenes_per_shard=3)
+        message = str(refused.value)
+        assert needle in message and "\n" not in message and len(message) < 400, message
+
+
+@pytest.mark.parametrize("n_scenes", [2, 5, 7])
+def test_shrinking_a_run_is_refused_and_keeps_every_shard(tiny_dataset, tiny, catalogue, tmp_path, n_scenes):
+    out = tmp_path / "shrink"
+    shutil.copytree(tiny_dataset, out)
+    with pytest.raises(RunError, match=f"holds 8 scenes, more than --scenes {n_scenes}; pass --scenes 8 "):
+        generate(out, tiny, catalogue, n_scenes=n_scenes, base_seed=7, scenes_per_shard=3)
+    same_files(out, tiny_dataset)
+    (out / "manifest.json").unlink()  # an unfinished run: its sidecars tell the same
+    with pytest.raises(RunError, match="holds 8 scenes"):
+        generate(out, tiny, catalogue, n_scenes=n_scenes, base_seed=7, scenes_per_shard=3)
 
 
 def test_two_runs_into_one_folder_are_refused(tiny, catalogue, tmp_path):
@@ -236,4 +265,22 @@ def test_progress_on_a_terminal_redraws_one_bar_as_scenes_finish():
     assert 2 <= len(counts) < 10, "redrawn as scenes finish, but not for every one"
     assert counts == sorted(counts) and 40 < counts[-1] <= 50 and "ETA" in text
     assert "\r\x1b[Kdone: 10 scenes (1 error skipped)" in text and "40 scenes were already on disk" in text
-    assert text.rstrip("\n").splitlines()[-1].startswith("warning: 1 scenes raised an error")
+    assert text.rstrip("\n").splitlines()[-1].startswith("warning: 1 scene raised an error")
+
+
+def test_progress_counts_one_of_a_thing_in_the_singular_and_a_run_never_started_says_nothing():
+    stream = io.StringIO()
+    RunProgress(stream, tty=False, clock=Clock(1.0)).close(finished=False)  # refused before it started
+    assert stream.getvalue() == ""
+    p = RunProgress(stream, tty=False, clock=Clock(1.0))
+    p.start(3, 1, 3, 1)
+    p.shard(summary(1, 1, 2))
+    p.scene(SceneTick(2, 2, 0, 0, "error"))
+    p.shard(summary(2, 2, 3, skipped=1))
+    p.close()
+    lines = stream.getvalue().splitlines()
+    assert lines[0] == "1 of 3 shards already complete (1 scene); doing the rest"
+    assert lines[1].startswith("shard-00001: 1 scene, 1 record, 5 QA, 0 skipped")
+    assert lines[3].startswith("done: 2 scenes (1 error skipped), 1 record, 5 QA in ")
+    assert lines[3].endswith("; 1 scene was already on disk")
+    assert lines[4].startswith("warning: 1 scene raised an error;")

@@ -1,6 +1,8 @@
 """`refspatial show`: layout, markers where the answers are, index errors, determinism."""
 
 import argparse
+import errno
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -9,8 +11,9 @@ import pytest
 from refspatial.assets import load_catalogue
 from refspatial.recipe import load_recipe
 from refspatial.shards import generate
-from refspatial.show import (GAP_PX, PANEL_WIDTH_PX, QA_COLORS, ShowError, add_cli, choose_qa, free_region_mask,
-                             read_record, render_record)
+from refspatial.show import add_cli, choose_qa, read_record, render_record
+from refspatial.show_layout import GAP_PX, PANEL_WIDTH_PX, QA_COLORS, ShowError
+from refspatial.show_overlay import free_region_mask
 
 from conftest import TINY
 
@@ -127,6 +130,35 @@ def test_command_writes_the_png(dataset, tmp_path, capsys):
         bad.func(bad)
 
 
+@pytest.mark.parametrize("where, needle", [("file/r.png", "file is a file, not a folder"),
+                                           ("folder.png", "cannot write it (Is a directory)")])
+def test_an_out_that_cannot_be_written_is_one_line_and_exit_2(dataset, tmp_path, capsys, where, needle):
+    from refspatial.cli import main
+
+    (tmp_path / "file").write_text("precious")
+    (tmp_path / "folder.png").mkdir()
+    assert main(["show", str(dataset), "--record", "0", "--out", str(tmp_path / where)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err, err
+    assert (tmp_path / "file").read_text() == "precious"
+
+
+def test_a_full_disk_leaves_the_old_png_whole_and_no_partial_file(sample, tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    out = tmp_path / "r.png"
+    out.write_bytes(b"the old picture")
+
+    def half_then_full(self, path, **kw):
+        Path(path).write_bytes(b"\x89PNG half")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Figure, "savefig", half_then_full)
+    with pytest.raises(ShowError, match=r"cannot write it \(No space left on device\); choose another path"):
+        render_record(sample, [0], out)
+    assert out.read_bytes() == b"the old picture" and sorted(tmp_path.iterdir()) == [out]
+
+
 def test_free_mask_decodes_and_must_fit_the_image():
     from refspatial.annotate import rle_encode
 
@@ -162,11 +194,11 @@ def test_a_free_region_and_marks_are_drawn(sample, tmp_path):
 
 def test_steps_of_the_other_view_are_not_drawn_here():
     """A multi-view trace: Position steps follow the program's unique nodes, whose view says which image."""
-    from refspatial.show import _step_views
+    from refspatial.show_overlay import step_views
 
     qa = {"steps": [{"op": "unique", "view": "other", "result": 3}, {"op": "relate"},
                     {"op": "unique", "view": "other", "result": 1}, {"op": "unique", "result": 1}],
           "reasoning_steps": [{"kind": "Position", "point": [0.1, 0.1]}, {"kind": "Size", "value": 0.1},
                               {"kind": "Position", "point": [0.2, 0.2]}, {"kind": "Position", "point": [0.3, 0.3]},
                               {"kind": "Position", "point": [0.4, 0.4]}]}
-    assert [v for _, v in _step_views(qa)] == ["other", "self", "other", "self", "self"]
+    assert [v for _, v in step_views(qa)] == ["other", "self", "other", "self", "self"]
