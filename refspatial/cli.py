@@ -18,8 +18,16 @@ _nonnegative = at_least(0)
 _positive = at_least(1)
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors in one line, as every other failure: the error and where the help is (the
+    full usage of `generate` alone is eight lines of flags in front of the one that matters)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="refspatial", description=__doc__ or "")
+    parser = _Parser(prog="refspatial", description=__doc__ or "")
     parser.description = "Generate, inspect and audit multi-step spatial-referring QA data."
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 

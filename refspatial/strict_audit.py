@@ -40,6 +40,7 @@ import numpy as np
 
 from .colour import srgb_to_lab
 from .colour_words import reads_as
+from .manifest import ManifestError
 from .records import ShardReader
 from .scene import quat_to_matrix
 from .stats import load_manifest
@@ -275,7 +276,11 @@ def main(argv: list[str] | None = None) -> int:
     if not roots:
         print("usage: python -m refspatial.strict_audit DATASET_DIR [DATASET_DIR ...]", file=sys.stderr)
         return 2
-    checked, violations = audit(*roots)
+    try:
+        checked, violations = audit(*roots)
+    except (ManifestError, FileNotFoundError, NotADirectoryError) as exc:  # a wrong or damaged folder
+        print(f"strict_audit: error: {exc}", file=sys.stderr)
+        return 2
     for p, n in sorted(checked.items()):
         print(f"{p:<20} {n:>7} checked")
     for line in violations:

@@ -136,11 +136,32 @@ def test_a_run_refused_before_it_starts_prints_one_line_and_no_summary(where, ne
 def test_verify_refuses_a_negative_max_failures_and_counts_in_words(tmp_path, capsys):
     out = tmp_path / "ds"
     assert main(["generate", "--scenes", "1", "--recipe", str(TINY), "--out", str(out), "--workers", "1", "--quiet"]) == 0
-    with pytest.raises(SystemExit) as refused:  # argparse: usage and the error, exit 2
+    with pytest.raises(SystemExit) as refused:
         main(["verify", str(out), "--max-failures", "-1"])
-    assert refused.value.code == 2 and "expected a number >= 0, got -1" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and err == ("refspatial verify: error: argument --max-failures: expected a "
+                                              "number >= 0, got -1 (see refspatial verify --help)\n")
     assert main(["verify", str(out), "--max-failures", "0"]) == 0
     assert capsys.readouterr().out.startswith("verified 1 shard, 2 records, ")
+
+
+@pytest.mark.parametrize("argv", [["generate", "--scenes", "x"], ["generate"], [], ["export", "roborefer"],
+                                  ["stats", "--no-such-flag", "d"]])
+def test_usage_errors_are_one_line_and_exit_2(argv, capsys):
+    """argparse prints the whole usage before its error (eight lines for generate); ours is one."""
+    with pytest.raises(SystemExit) as refused:
+        main(argv)
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and err.count("\n") == 1 and ": error: " in err and "--help)" in err
+
+
+def test_the_strict_audit_of_a_damaged_folder_is_one_line(tmp_path, capsys):
+    from refspatial.strict_audit import main as audit_main
+
+    (tmp_path / "manifest.json").write_text("[]")
+    assert audit_main([str(tmp_path)]) == 2 and audit_main([str(tmp_path / "none")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 2 and all(line.startswith("strict_audit: error: ") for line in err)
 
 
 def test_a_rerun_that_made_nothing_says_so(tmp_path, capsys):
