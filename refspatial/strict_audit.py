@@ -12,8 +12,9 @@ the camera -- and checks every relation a question relied on:
   the box centre's depth;
 - bigger/smaller: larger both by enclosed volume and by box volume;
 - taller/shorter, wider/thinner: by at least 1 cm;
-- above/below: directly over or under (the boxes' ground outlines overlap, one's bottom not
-  below the other's top less 2 cm);
+- above/below: directly over or under (the smaller's centre within the larger's ground outline,
+  one's bottom not below the other's top less 2 cm);
+- higher/lower in the image: the whole mask shifted (top row and bottom row both above);
 - between: the subject's box centre lies on the ground segment joining the anchors' centres
   (not beyond either end, at most a quarter of its length off it), and its mask centroid lies
   between theirs in the image likewise;
@@ -37,6 +38,7 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
 from .colour import srgb_to_lab
 from .colour_words import reads_as
@@ -120,6 +122,11 @@ class View:
             return float("inf")
         return float(np.sqrt(((cols + 0.5 - point[0] * w) ** 2 + (rows + 0.5 - point[1] * h) ** 2).min()))
 
+    def rows(self, a: Box) -> tuple[int, int] | None:
+        """First and last image row of the object's pixels."""
+        rows = np.nonzero((self.seg == a.id).any(axis=1))[0]
+        return (int(rows[0]), int(rows[-1])) if rows.size else None
+
     def centroid(self, a: Box) -> np.ndarray | None:
         """(column, row) of the object's mask centroid, None when it shows no pixel."""
         if a.id not in self._centroid:
@@ -138,17 +145,29 @@ def _before(v: View, a: Box, b: Box, axis: np.ndarray) -> bool:
     return not v.stacked(a, b) and a.span(axis)[1] < b.span(axis)[0]
 
 
-X, Y, Z = np.eye(3)
+Z = np.array([0.0, 0.0, 1.0])
 
 
-def _apart(a: Box, b: Box, axis: np.ndarray) -> bool:
-    (a_lo, a_hi), (b_lo, b_hi) = a.span(axis), b.span(axis)
-    return a_hi < b_lo or b_hi < a_lo
+def _outline_of(a: Box) -> np.ndarray:
+    return a.outline if a.outline is not None else a.corners[:, :2]
+
+
+def _within(point: np.ndarray, outline: np.ndarray) -> bool:
+    hull = ConvexHull(outline)
+    return bool(np.all(hull.equations[:, :2] @ point + hull.equations[:, 2] <= 1e-9))
 
 
 def _over(a: Box, b: Box) -> bool:
-    """Directly over: the ground outlines meet along x and y, and a's bottom is not below b's top."""
-    return not (_apart(a, b, X) or _apart(a, b, Y)) and a.span(Z)[0] >= b.span(Z)[1] - STACK_SLACK_M
+    """Directly over: the smaller's centre lies within the larger's ground outline (a round plate's
+    own, not its box's), and a's bottom is not below b's top."""
+    small, big = sorted((a, b), key=lambda o: ConvexHull(_outline_of(o)).volume)
+    return _within(small.centre[:2], _outline_of(big)) and a.span(Z)[0] >= b.span(Z)[1] - STACK_SLACK_M
+
+
+def _shown_higher(v: View, a: Box, b: Box) -> bool:
+    """a's pixels lie higher in the picture than b's: its top row and its bottom row both above b's."""
+    ra, rb = v.rows(a), v.rows(b)
+    return ra is not None and rb is not None and ra[0] < rb[0] and ra[1] < rb[1]
 
 
 def _on_segment(p: np.ndarray, q: np.ndarray, r: np.ndarray, ends: float) -> bool:
@@ -188,6 +207,8 @@ STRICT = {
     "thinner_than": lambda v, a, b: np.ptp(b.span(v.right)) >= np.ptp(a.span(v.right)) + TOLERANCE_M,
     "above": lambda v, a, b: _over(a, b),
     "below": lambda v, a, b: _over(b, a),
+    "higher_in_image": lambda v, a, b: _shown_higher(v, a, b),
+    "lower_in_image": lambda v, a, b: _shown_higher(v, b, a),
 }
 
 
@@ -258,7 +279,8 @@ def _audit_qa(view: View, qa: dict):
 CONVERSE = {"left_of": "right_of", "right_of": "left_of", "in_front_of": "behind", "behind": "in_front_of",
             "bigger_than": "smaller_than", "smaller_than": "bigger_than", "taller_than": "shorter_than",
             "shorter_than": "taller_than", "wider_than": "thinner_than", "thinner_than": "wider_than",
-            "above": "below", "below": "above"}
+            "above": "below", "below": "above", "higher_in_image": "lower_in_image",
+            "lower_in_image": "higher_in_image"}
 
 
 def _strict_no(p: str, v: View, a: Box, b: Box) -> bool:

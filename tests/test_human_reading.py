@@ -171,3 +171,79 @@ def test_a_colour_word_is_used_only_when_everything_it_names_looks_it():
     assert colour_tells_apart(view(back, front), back, "phone")
     front = phone(1, 0.2, "white")
     assert not colour_tells_apart(view(back, front), back, "phone")
+
+
+def _disc(x: float, y: float, r: float) -> np.ndarray:
+    angles = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    return np.column_stack([x + r * np.cos(angles), y + r * np.sin(angles)])
+
+
+def test_directly_above_reads_round_things_as_round():
+    """A 21.6 cm plate on the board above, turned 45 degrees, and a bottle 12.5 cm off the plate's
+    centre: the plate's turned box covers a third of the bottle's, but the bottle is not under
+    the plate (annotator: "straight below the middle plate"). Under the plate's middle it is."""
+    diamond = np.array([[0.153, 0.2], [0.0, 0.353], [-0.153, 0.2], [0.0, 0.047]])
+
+    def plate_and_bottle(x: float):
+        plate = _facts({"id": 0, "category": "plate", "at": [0.0, 0.2, 0.40], "size": [0.216, 0.216, 0.02],
+                        "support": -2})
+        bottle = _facts({"id": 1, "category": "bottle", "at": [x, 0.2, 0.0], "size": [0.07, 0.07, 0.25]})
+        return (dataclasses.replace(plate, footprint_world=diamond, outline_world=_disc(0.0, 0.2, 0.108)),
+                dataclasses.replace(bottle, outline_world=_disc(x, 0.2, 0.035)))
+
+    plate, bottle = plate_and_bottle(0.125)
+    assert PREDICATES["above"](view(plate, bottle), plate, bottle) is None
+    assert PREDICATES["below"](view(plate, bottle), bottle, plate) is None
+    plate, bottle = plate_and_bottle(0.02)
+    assert PREDICATES["above"](view(plate, bottle), plate, bottle) is True
+
+
+def test_on_in_and_across_boards_are_not_near_between_or_beside():
+    """A bottle in a basket is in it, not "close to" it; a block on a side table is not "between"
+    the table and a case; a candle a board up is on no side of a duck (annotator)."""
+    from refspatial.scene import Cavity
+
+    basket = dataclasses.replace(_facts({"id": 0, "category": "basket", "at": [0.0, 0.2, 0.0],
+                                         "size": [0.3, 0.3, 0.12]}),
+                                 cavity=Cavity("box", (0.14, 0.14), 0.01, 0.12))
+    bottle = _facts({"id": 1, "category": "bottle", "at": [0.0, 0.2, 0.01], "size": [0.07, 0.07, 0.2]})
+    assert PREDICATES["near"](view(basket, bottle), bottle, basket) is None
+
+    table = _facts({"id": 0, "category": "side_table", "at": [-0.2, 0.2, 0.0], "size": [0.3, 0.3, 0.1]})
+    block = _facts({"id": 1, "category": "toy_block", "at": [-0.1, 0.2, 0.1], "size": [0.05, 0.05, 0.05],
+                    "support": 0})
+    case = _facts({"id": 2, "category": "glasses_case", "at": [0.3, 0.2, 0.0], "size": [0.15, 0.06, 0.04]})
+    assert PREDICATES["between"](view(table, block, case), block, table, case) is False
+
+    duck = _facts({"id": 0, "category": "rubber_duck", "at": [0.0, 0.2, 0.0], "size": [0.1, 0.07, 0.08]})
+    candle = _facts({"id": 1, "category": "candle", "at": [-0.15, 0.2, 0.38], "size": [0.06, 0.06, 0.1],
+                     "support": -2})  # behind the duck's beak (+x), a board up
+    assert PREDICATES["on_back_side"](view(duck, candle), candle, duck) is False
+    level = dataclasses.replace(candle, aabb_world_m=candle.aabb_world_m - [0, 0, 0.38], support=TABLE)
+    assert PREDICATES["on_back_side"](view(duck, level), level, duck) is True
+
+
+def test_no_corner_or_edge_of_the_table_on_a_shelf():
+    jar = _facts({"id": 0, "category": "jar", "at": [0.55, 0.35, 0.0], "size": [0.08, 0.08, 0.12]})
+    assert PREDICATES["at_corner"](view(jar), jar) is True
+    shelf = dataclasses.replace(view(jar), table_levels_m=(0.38, 0.76))
+    assert PREDICATES["at_corner"](shelf, jar) is None and PREDICATES["at_edge"](shelf, jar) is None
+
+
+def test_a_tall_thing_spanning_a_small_one_is_neither_higher_nor_lower_in_the_picture():
+    """A stool whose pixels run from above a mug's to below them (annotator: "further down in the
+    image" answered by centroids)."""
+    stool = _facts({"id": 0, "category": "stool", "at": [-0.2, 0.2, 0.0], "size": [0.3, 0.3, 0.45]})
+    mug = _facts({"id": 1, "category": "mug", "at": [0.2, 0.2, 0.0], "size": [0.08, 0.08, 0.1]})
+    v = view(stool, mug)
+    v.seg[:] = -1
+    v.seg[20:100, 30:60] = 0  # the stool, rows 20-99
+    v.seg[60:75, 100:110] = 1  # the mug, rows 60-74
+    stool = dataclasses.replace(stool, centroid_px=(45.0, 59.5))
+    mug = dataclasses.replace(mug, centroid_px=(105.0, 67.0))
+    assert PREDICATES["lower_in_image"](v, mug, stool) is None  # centroids alone said yes
+    v.seg[v.seg == 0] = -1
+    v.seg[20:50, 30:60] = 0  # a short stool wholly above the mug in the picture
+    v.cache.clear()
+    stool = dataclasses.replace(stool, centroid_px=(45.0, 34.5))
+    assert PREDICATES["lower_in_image"](v, mug, stool) is True

@@ -120,3 +120,16 @@ def test_the_generators_own_data_has_no_violation(tiny_dataset):
     checked, violations = audit(tiny_dataset)
     assert sum(checked.values()) > 0
     assert violations == []
+
+
+def test_shown_lower_needs_the_whole_mask_lower():
+    """A mug whose rows lie inside a stool's is neither lower nor higher in the picture."""
+    objs = [_obj(0, 0.0, 0.0, 0.1, 0.1), _obj(1, 0.3, 0.0, 0.3, 0.45)]
+    sample = _sample(objs, _relate("lower_in_image", [0], 1))
+    sample["seg"][:] = -1
+    sample["seg"][10:14, 5:10] = 0  # the mug, rows 10-13
+    sample["seg"][2:30, 30:40] = 1  # the stool, rows 2-29
+    assert _violations(sample) == [("lower_in_image", 0, 1)]
+    sample["seg"][sample["seg"] == 1] = -1
+    sample["seg"][2:8, 30:40] = 1  # a stool wholly above the mug in the picture
+    assert _violations(sample) == []

@@ -140,6 +140,10 @@ def test_side_rules_by_feature():
     assert not seen("label", sideways) and seen("handle", sideways) and seen("tines", (0.0, 1.0, 0.0))
     assert not seen("handle", (0.0, 1.0, 0.0)) and not seen("none", (0.0, -1.0, 0.0))
     assert not seen("screen", sideways) and seen("screen", (0.3, -1.0, 0.0))
+    # A label turned to the camera on a bottle too small in the picture to show one (annotator).
+    facing = dataclasses.replace(obj(9, "bottle", "red", 0, 0, front=(0.0, -1.0, 0.0)), front_side="label")
+    assert side_visible(v, dataclasses.replace(facing, visible_px=int(0.005 * v.seg.size)))
+    assert not side_visible(v, dataclasses.replace(facing, visible_px=int(0.003 * v.seg.size)))
 
 
 def test_every_catalogue_side_has_a_visibility_rule_and_symmetric_things_have_none():

@@ -170,7 +170,9 @@ def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
         high_end = {"left": "right", "front": "back", "near": "far"}[low_end]
         for end, order in ((low_end, ascending), (high_end, ascending[::-1])):
             rank = order.index(target.object_id) + 1
-            if rank <= MAX_RANK:
+            # Counted from the nearer end: "the third-closest" of three books is "the farthest",
+            # and "the second from the right" of two mugs is "the leftmost" (annotator).
+            if rank <= min(MAX_RANK, (len(ids) + 1) // 2):
                 spread = float(coords.std()) / (1.0 if axis != "depth" else 2.0)
                 options.append((-spread, rank, Ordinal(axis, end, rank)))
     return [o for *_, o in sorted(options, key=lambda t: (t[0], t[1]))]

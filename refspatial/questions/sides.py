@@ -26,14 +26,19 @@ SIDE_PREDICATES = ("on_facing_side", "on_back_side")
 
 
 @lru_cache(maxsize=1)
-def side_limits() -> dict[str, float]:
-    """Side word -> largest front-to-camera angle (degrees) at which that side may be named;
-    the key "" holds the default for side words the table does not list."""
+def side_limits() -> dict[str, tuple[float, float]]:
+    """Side word -> (largest front-to-camera angle in degrees, least share of the image the
+    object covers) at which that side may be named; the key "" holds the default for side
+    words the table does not list."""
     table = yaml.safe_load(TEMPLATES.read_text(encoding="utf-8"))["side_visibility"]
-    limits = {"": float(table[table["default"]]["max_deg"])}
+
+    def limit(rule: dict) -> tuple[float, float]:
+        return float(rule["max_deg"]), float(rule["min_share"])
+
+    limits = {"": limit(table[table["default"]])}
     for kind, rule in table.items():
         if kind != "default":
-            limits.update({side: float(rule["max_deg"]) for side in rule["sides"]})
+            limits.update({side: limit(rule) for side in rule["sides"]})
     return limits
 
 
@@ -56,4 +61,5 @@ def side_visible(view: ViewFacts, o: ObjectFacts) -> bool:
         return False
     angle = front_to_camera_deg(view, o)
     limits = side_limits()
-    return angle is not None and angle <= limits.get(o.front_side, limits[""])
+    max_deg, min_share = limits.get(o.front_side, limits[""])
+    return angle is not None and angle <= max_deg and o.visible_px >= min_share * view.seg.size

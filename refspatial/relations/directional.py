@@ -12,7 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from .facts import ObjectFacts, ViewFacts
+from .masks import box_of, cached_boxes
 from .registry import Verdict, compare, predicate
+from .vertical import containment
 
 CLEAR_GAP_M = 0.01  # extents along an axis must be at least this far apart: boxes are bounds, not shapes
 DEPTH_MARGIN_M = 0.03
@@ -26,6 +28,11 @@ BETWEEN_LATERAL_SHARE = 0.25
 # ...and a person checks "between" in the picture too: the subject's mask centroid must sit in the
 # middle of the image segment joining the anchors' centroids, at most this share of its length off it.
 BETWEEN_IMAGE_T = (0.1, 0.9)
+# "Not between" must hold loosely too, or a reader finds two things "between": a board standing
+# in the gap the line runs through, 30 cm off it, is between to the eye (annotator). Clearly not:
+# beyond an end by a tenth of the distance, or off the line by 40 % of it (and the corridor).
+BETWEEN_BEYOND = 0.1
+BETWEEN_LOOSE_SHARE = 0.4
 
 
 def clear_order(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, axis: np.ndarray, ca: float, cb: float) -> Verdict:
@@ -102,14 +109,16 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
     half-width and within a quarter of the B-C distance, and in the
     image A's mask centroid lies between the anchors' (at 0.1 to 0.9 along the segment
     joining their centroids, at most a quarter of its length off it). The half-width is half
-    the wider anchor's extent across the line. False when t < 0, t > 1 or d exceeds the
-    half-width by 5 cm; undecided otherwise, when B and C are
-    < 10 cm apart, and when True's image test fails or cannot be made (an unseen object).
-    False when the three rest on different levels (the table top, a shelf board:
+    the wider anchor's extent across the line. False when t < -0.1, t > 1.1, or d exceeds
+    both the half-width by 5 cm and 40 % of the B-C distance; undecided otherwise, when B and C
+    are < 10 cm apart, and when True's image test fails or cannot be made (an unseen object).
+    False when A rests on or in B or C (a block on a side table is on it, not between it and
+    the case), and when the three rest on different levels (the table top, a shelf board:
     what they stand on, followed down through stacks), as on a shelf a bear on the
     top board is not "between" two things on the board below whatever the plan view.
     """
-    if v.on_other_levels(a, b, c):
+    if (v.on_other_levels(a, b, c) or v.stacked(a, b) or v.stacked(a, c)
+            or containment(a, b) is True or containment(a, c) is True):
         return False
     t, d, length = _along_and_off(*(o.center_world_m[:2] for o in (a, b, c)))
     if length < BETWEEN_MIN_GAP_M:
@@ -119,7 +128,8 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
     seg = c.center_world_m[:2] - b.center_world_m[:2]
     across = np.array([-seg[1], seg[0], 0.0]) / length
     half_width = 0.5 * max(b.extent_along(across), c.extent_along(across))
-    if t < 0 or t > 1 or d > half_width + BETWEEN_OUTSIDE_M:
+    if t < -BETWEEN_BEYOND or t > 1 + BETWEEN_BEYOND or d > max(half_width + BETWEEN_OUTSIDE_M,
+                                                               BETWEEN_LOOSE_SHARE * length):
         return False
     if BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= min(half_width, BETWEEN_LATERAL_SHARE * length):
         return True if _between_in_image(a, b, c) else None
@@ -147,20 +157,37 @@ def _between_in_image(a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> bool:
 IMAGE_ROW_MARGIN = 0.04  # share of the image height between mask centroids
 
 
+def _rows(v: ViewFacts, o: ObjectFacts) -> tuple[int, int] | None:
+    """First and last image row of the object's visible pixels."""
+    box = box_of(cached_boxes(v), o.object_id)
+    return None if box is None else (box[0].start, box[0].stop - 1)
+
+
+def _shown_higher(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> bool:
+    """A's centroid is higher by the margin and its whole mask is shifted up: its top row above
+    B's top and its bottom row above B's bottom. A stool spanning a mug's rows is neither higher
+    nor lower than the mug, whatever the centroids say (annotator)."""
+    if compare(b.centroid_px[1] - a.centroid_px[1], IMAGE_ROW_MARGIN * v.height) is not True:
+        return False
+    ra, rb = _rows(v, a), _rows(v, b)
+    return ra is not None and rb is not None and ra[0] < rb[0] and ra[1] < rb[1]
+
+
 @predicate("higher_in_image", family="image_above_below", arity=2, frame="image", inverse="lower_in_image")
 def higher_in_image(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's visible-mask centroid lies higher in the image (smaller row) than B's.
+    """A is shown higher in the image than B: its visible-mask centroid lies higher (smaller row)
+    by 4 % of the image height, and its mask's top and bottom rows both lie above B's.
 
-    Margin: 4 % of the image height. Undecided when either object is unseen.
+    False when the same holds for B over A; undecided otherwise, and when either is unseen.
     """
     if a.centroid_px is None or b.centroid_px is None:
         return None
-    return compare(b.centroid_px[1] - a.centroid_px[1], IMAGE_ROW_MARGIN * v.height)
+    if _shown_higher(v, a, b):
+        return True
+    return False if _shown_higher(v, b, a) else None
 
 
 @predicate("lower_in_image", family="image_above_below", arity=2, frame="image", inverse="higher_in_image")
 def lower_in_image(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A's visible-mask centroid lies lower in the image (larger row) than B's; margin as higher_in_image."""
-    if a.centroid_px is None or b.centroid_px is None:
-        return None
-    return compare(a.centroid_px[1] - b.centroid_px[1], IMAGE_ROW_MARGIN * v.height)
+    """A is shown lower in the image than B: exactly ``higher_in_image(B, A)``."""
+    return higher_in_image(v, b, a)

@@ -53,13 +53,18 @@ def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     to A: True within 45 degrees, False beyond 100 (clearly across the line through B
     that splits its front half from its back half), undecided between; undecided
     when B's front points mostly up or down, or B has no semantic front (side "none").
+    False when the two rest on different levels (shelf boards).
     """
+    if v.on_other_levels(a, b):  # a candle a board up is above the duck, on no side of it
+        return False
     return _within(_side_angle(a, b), FACING_DEG, NOT_FACING_DEG)
 
 
 @predicate("on_back_side", family="face_back", arity=2, frame="object", inverse=None)
 def on_back_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A lies on the side of B opposite its front: the facing-side test mirrored (angle measured from -front)."""
+    if v.on_other_levels(a, b):
+        return False
     angle = _side_angle(a, b)
     return _within(None if angle is None else 180.0 - angle, FACING_DEG, NOT_FACING_DEG)
 
@@ -67,9 +72,10 @@ def on_back_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 def _edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
     """Distances (x, y) from A's footprint to the nearest table edges, for objects standing on the table.
 
-    None on a room's floor (its edges are not the room's walls and are out of the picture), and
-    for a thing in a container: a person judges the basket at the edge, not the jar in it."""
-    if a.support != TABLE or not v.table_size_m[0] or v.table_surface == "floor":
+    None on a room's floor (its edges are not the room's walls and are out of the picture), on a
+    shelf (questions say "the table", and a board's corners are not what a person calls one),
+    and for a thing in a container: a person judges the basket at the edge, not the jar in it."""
+    if a.support != TABLE or not v.table_size_m[0] or v.table_surface == "floor" or v.table_levels_m:
         return None
     if any(o.object_id != a.object_id and containment(a, o) is not False for o in v.objects):
         return None

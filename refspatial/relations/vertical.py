@@ -5,35 +5,44 @@ from __future__ import annotations
 import numpy as np
 
 from .facts import ObjectFacts, ViewFacts
-from .geometry import inside_convex, overlap_share
+from .geometry import inside_convex, overlap_share, polygon_area
 from .registry import Verdict, predicate
 
 STACK_TOLERANCE_M = 0.02  # A's bottom may sink this far below B's top (rims, soft contact)
-OVERLAP_ABOVE = 0.3  # share of the smaller footprint that must overlap to call one above the other
+# "Directly above": the ground outlines (the meshes' own, so a round plate is round) overlap by
+# half of the smaller and the smaller's centre lies under or over the larger. A plate's rim
+# reaching over a mug two boards down is not "straight above" it (annotator).
+OVERLAP_ABOVE = 0.5
 CAVITY_INNER = 0.9  # A's centre must lie within this share of the cavity's half extents
 CAVITY_OUTSIDE_M = 0.01  # clearly outside: centre beyond the container's footprint grown by this
 
 
-def _overlap(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> float:
-    """Share of the smaller footprint that the larger covers; memoised per pair (above and below
-    ask it of both orders)."""
+def _ground(o: ObjectFacts) -> np.ndarray:
+    return o.outline_world if o.outline_world is not None else o.footprint_world
+
+
+def _overlap(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, bool]:
+    """Share of the smaller ground outline that the larger covers, and whether the smaller's
+    centre lies within the larger; memoised per pair (above and below ask both orders)."""
     key = ("footprint_overlap", *sorted((a.object_id, b.object_id)))
     if key not in v.cache:
-        small, big = (a, b) if a.footprint_m.prod() <= b.footprint_m.prod() else (b, a)
-        v.cache[key] = overlap_share(small.footprint_world, big.footprint_world)
+        small, big = (a, b) if polygon_area(_ground(a)) <= polygon_area(_ground(b)) else (b, a)
+        share = overlap_share(_ground(small), _ground(big))
+        centred = share > 0 and bool(inside_convex(small.center_world_m[None, :2], _ground(big))[0])
+        v.cache[key] = (share, centred)
     return v.cache[key]
 
 
 @predicate("above", family="world_above_below", arity=2, frame="world", inverse="below")
 def above(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A is above B along gravity: footprints overlap and A's bottom is at or over B's top.
+    """A is directly above B along gravity: ground outlines overlap and A's bottom is at or over B's top.
 
-    True: overlap >= 30 % of the smaller footprint and A's bottom >= B's top - 2 cm.
-    False: the footprints do not meet, or A's top is below B's bottom + 2 cm.
-    Undecided otherwise (partial overlap, interleaved heights).
+    True: the outlines overlap by >= 50 % of the smaller, the smaller's centre lies within the
+    larger, and A's bottom >= B's top - 2 cm. False: the outlines do not meet, or A's top is
+    below B's bottom + 2 cm. Undecided otherwise (partial overlap, interleaved heights).
     """
-    overlap = _overlap(v, a, b)
-    if overlap >= OVERLAP_ABOVE and a.aabb_world_m[0, 2] >= b.aabb_world_m[1, 2] - STACK_TOLERANCE_M:
+    overlap, centred = _overlap(v, a, b)
+    if overlap >= OVERLAP_ABOVE and centred and a.aabb_world_m[0, 2] >= b.aabb_world_m[1, 2] - STACK_TOLERANCE_M:
         return True
     if overlap == 0.0 or a.aabb_world_m[1, 2] <= b.aabb_world_m[0, 2] + STACK_TOLERANCE_M:
         return False
