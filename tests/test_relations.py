@@ -235,3 +235,13 @@ def test_covered_pixels_is_the_union_of_pixel_centres_inside(coords):
     # Centres exactly on an edge may fall either way through rounding: between the two counts.
     assert _covered_brute_force(tris, 40, 30, -1e-6) <= covered_pixels(both, 40, 30) <= \
         _covered_brute_force(tris, 40, 30, 1e-6)
+
+
+def test_a_repeated_corner_does_not_hide_the_inside_of_an_outline():
+    """Outlines are stored rounded to the micrometre, which can repeat a corner: its zero-length
+    edge has no normal, and every point read as outside (a bottle under a plate's middle was
+    not "directly below" it)."""
+    from refspatial.relations.geometry import inside_convex
+
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    assert inside_convex(np.array([[0.5, 0.5], [2.0, 2.0]]), square).tolist() == [True, False]

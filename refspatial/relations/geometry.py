@@ -69,7 +69,10 @@ def inside_convex(points: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np
     """Boolean mask of (N, 2) points inside a convex polygon grown outward by ``grow`` metres."""
     poly = ccw(poly)
     edges = _next(poly) - poly
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]  # outward
+    lengths = np.linalg.norm(edges, axis=1)
+    if not np.all(lengths > 0):  # outlines rounded as records store them can repeat a corner
+        poly, edges, lengths = poly[lengths > 0], edges[lengths > 0], lengths[lengths > 0]
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / lengths[:, None]  # outward
     offsets = np.einsum("ij,ij->i", poly, normals)
     return np.all(points @ normals.T - offsets <= grow, axis=1)
 
