@@ -1,7 +1,7 @@
 """Scene-family recipes: YAML data, validated once, hashed, read by every stage.
 
-A recipe may name another with ``extends: NAME``; the child's keys override the
-parent's, section by section. The recipe hash is the sha256 of the resolved
+A recipe may name another with ``extends: NAME`` (a recipe in recipes/, or a .yaml file
+beside the child); the child's keys override the parent's, section by section. The recipe hash is the sha256 of the resolved
 recipe's canonical JSON, so reformatting the YAML does not change any scene.
 """
 
@@ -290,6 +290,11 @@ def _resolve(path: Path, seen: tuple[Path, ...]) -> dict[str, Any]:
         return own
     if not isinstance(parent_name, str):
         raise RecipeError(f"{path}: extends: expected the name of another recipe")
+    # A parent given as a file is found beside the recipe that names it (as its room images are),
+    # wherever the command runs from; a bare name is one of recipes/.
+    as_file = Path(parent_name)
+    if as_file.suffix in (".yaml", ".yml") and not as_file.is_absolute():
+        parent_name = str(path.parent / as_file)
     try:
         parent_path = resolve_path(parent_name)
     except RecipeError as exc:  # say which file asks for the missing parent

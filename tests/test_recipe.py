@@ -44,7 +44,7 @@ def test_hash_ignores_formatting(tmp_path):
         ("extends: tabletop\nname: [x\n", "not valid YAML"),
         ("- just\n- a list\n", "expected a mapping"),
         ("extends: nowhere\nname: x\n", "r.yaml: extends: unknown recipe 'nowhere'"),
-        ("extends: no/such.yaml\nname: x\n", "r.yaml: extends: recipe file no/such.yaml does not exist"),
+        ("extends: no/such.yaml\nname: x\n", "no/such.yaml does not exist"),  # looked for beside r.yaml
         ("extends: tabletop\nname: x\ntable: {surface: lawn}\n", "table.surface: expected one of"),
         ("extends: tabletop\nname: x\nfurniture: {count: [2, 1]}\n", "furniture.count"),
         ("extends: tabletop\nname: x\nfurniture: {legs: 4}\n", "furniture.legs: unknown key"),
@@ -64,6 +64,17 @@ def test_extends_cycle_is_reported(tmp_path):
     write(tmp_path, f"extends: {tmp_path / 'a.yaml'}\nname: b\n", "b.yaml")
     with pytest.raises(RecipeError, match="cycle"):
         load_recipe(str(tmp_path / "a.yaml"))
+
+
+def test_a_parent_file_is_found_beside_the_recipe_that_names_it(tmp_path, monkeypatch):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    write(folder, "extends: tabletop\nname: base\ncamera: {width: 320}\n", "base.yaml")
+    write(folder, "extends: base.yaml\nname: child\n", "child.yaml")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)  # the parent is not in the folder the command runs from
+    assert load_recipe(str(folder / "child.yaml"))["camera"]["width"] == 320
 
 
 def test_unknown_recipe_lists_known_ones():
