@@ -122,8 +122,6 @@ def _cell(key: str | None, value: Any, table: Path, row: int) -> Any:
         raise LibraryError(f"{table} row {row}: more cells than columns; quote cells that hold commas")
     if key not in _PARSED or not isinstance(value, str) or not value.strip():
         return value.strip() if isinstance(value, str) else value
-    if key == "collision" and value.strip() in ("hull", "coacd"):
-        return {"method": value.strip()}
     try:
         return yaml.safe_load(value)
     except yaml.YAMLError:

@@ -128,6 +128,10 @@ def _vector(path: Path, value: Any) -> tuple[float, float, float]:
 
 
 def _collision(path: Path, value: Any) -> dict[str, Any]:
+    if isinstance(value, str):  # "collision: hull" reads as {method: hull} in YAML, JSON lines and CSV alike
+        value = {"method": value.strip()}
+    if value is not None and not isinstance(value, dict):
+        raise MeshImportError(f"{path}: collision: expected hull, coacd or a mapping of CoACD settings")
     settings = dict(value or {"method": "coacd"})
     method = settings.pop("method", "coacd")
     if method == "hull" and not settings:

@@ -216,6 +216,10 @@ def test_collision_hull_on_request(mesh_files, tmp_path) -> None:
     (folder / "mug.yaml").write_text(yaml.safe_dump(dict(NOTE, collision={"method": "hull"})))
     result = import_mesh(folder / "mug.stl", cache_dir=tmp_path)
     assert result.decomposition == "hull" and len(result.parts) == 1
+    # The README's short form, `collision: hull`, means the same in a YAML note (and in JSON lines).
+    (folder / "mug.yaml").write_text(yaml.safe_dump(dict(NOTE, collision="hull")))
+    result = import_mesh(folder / "mug.stl", cache_dir=tmp_path)
+    assert result.decomposition == "hull" and len(result.parts) == 1
 
 
 def test_size_m_scales_the_longest_extent(mesh_files, tmp_path) -> None:
