@@ -30,15 +30,17 @@ HEADER = """\
 """
 
 
-@lru_cache(maxsize=1)
-def _data() -> dict:
-    return yaml.safe_load(TABLE.read_text(encoding="utf-8"))
+# Words a render cannot tell apart: a brushed-metal "silver" and a matte "gray" both come out a
+# mid gray under these lights. A constant, not read from the table, so that recalibrating never
+# depends on the file it rewrites.
+ALIKE = [["gray", "silver"]]
 
 
 @lru_cache(maxsize=1)
 def _table() -> tuple[dict[str, np.ndarray], dict[str, str]]:
-    prototypes = {w: np.asarray(lab, float) for w, lab in _data()["prototypes"].items()}
-    alike = {w: group[0] for group in _data().get("alike", []) for w in group}
+    data = yaml.safe_load(TABLE.read_text(encoding="utf-8"))
+    prototypes = {w: np.asarray(lab, float) for w, lab in data["prototypes"].items()}
+    alike = {w: group[0] for group in data.get("alike", ALIKE) for w in group}
     return prototypes, alike
 
 
@@ -77,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     if not roots:
         print("usage: python -m refspatial.colour_words DATASET_DIR [DATASET_DIR ...]", file=sys.stderr)
         return 2
-    table = {"prototypes": calibrate(*roots), "alike": _data().get("alike", [])}
+    table = {"prototypes": calibrate(*roots), "alike": ALIKE}
     print(HEADER + yaml.safe_dump(table, default_flow_style=None, sort_keys=False), end="")
     return 0
 

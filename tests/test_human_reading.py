@@ -247,3 +247,21 @@ def test_a_tall_thing_spanning_a_small_one_is_neither_higher_nor_lower_in_the_pi
     v.cache.clear()
     stool = dataclasses.replace(stool, centroid_px=(45.0, 34.5))
     assert PREDICATES["lower_in_image"](v, mug, stool) is True
+
+
+def test_recalibrating_colour_words_does_not_read_the_table_it_rewrites(tiny_dataset, tmp_path, monkeypatch, capsys):
+    """`python -m refspatial.colour_words DIR > refspatial/colour_words.yaml`: the shell empties the
+    table before the command starts (it died reading the empty file, leaving it empty)."""
+    import refspatial.colour_words as cw
+
+    empty = tmp_path / "colour_words.yaml"
+    empty.write_text("")
+    monkeypatch.setattr(cw, "TABLE", empty)
+    cw._table.cache_clear()
+    try:
+        assert cw.main([str(tiny_dataset)]) == 0
+        table = yaml.safe_load(capsys.readouterr().out)
+        assert table["alike"] == [["gray", "silver"]] and set(table["prototypes"]) and all(
+            len(lab) == 3 for lab in table["prototypes"].values())
+    finally:
+        cw._table.cache_clear()
