@@ -16,6 +16,7 @@ import ctypes
 import multiprocessing as mp
 import os
 import signal
+import socket
 import threading
 from collections import deque
 from contextlib import contextmanager
@@ -312,14 +313,34 @@ def _connect(ray: Any, address: str | None, num_cpus: int | None) -> bool:
         return False
     if address is None and not os.environ.get("RAY_ADDRESS"):
         os.environ.setdefault("RAY_AUTH_MODE", "disabled")  # a throw-away local instance
-        ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False)
+        # "local": a new instance even when `ray start --head` runs on this machine (Ray would
+        # join that one, and refuse num_cpus there).
+        ray.init(address="local", num_cpus=num_cpus, include_dashboard=False, log_to_driver=False)
     else:
+        where = address or os.environ["RAY_ADDRESS"]
+        _check_reachable(where)
         try:
             ray.init(address=address)
         except (ConnectionError, RuntimeError) as exc:
             raise RunError(f"cannot reach the Ray cluster at {address or os.environ['RAY_ADDRESS']} "
                            f"({one_line(exc)[:200]}); check --address and that `ray status` works there") from None
     return True
+
+
+REACH_TIMEOUT_S = 10.0
+
+
+def _check_reachable(address: str) -> None:
+    """A head address nothing answers at is one line now: Ray itself retries it for minutes."""
+    host_port = address.removeprefix("ray://")
+    host, _, port = host_port.rpartition(":")
+    if not host or not port.isdigit():
+        return  # "auto" and other forms Ray resolves itself
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=REACH_TIMEOUT_S).close()
+    except OSError as exc:
+        raise RunError(f"cannot reach the Ray cluster at {address} ({exc.strerror or exc}); check --address "
+                       "and that `ray status` works there") from None
 
 
 def _ray_task(shard_fn: ShardFn, job: ShardJob, queue: Any) -> dict:

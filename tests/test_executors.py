@@ -212,3 +212,18 @@ def test_the_run_depends_on_executors_and_never_the_other_way():
     for module in ("executors.py", "shard_job.py", "run_errors.py"):
         assert "shards" not in _imported_modules(package / module), module
     assert "executors" in _imported_modules(package / "shards.py")
+
+
+def test_a_ray_address_nothing_answers_at_is_one_line_not_a_hang():
+    """Ray retries an unreachable head for minutes, silently (README user: 11 minutes)."""
+    import socket
+
+    from refspatial.executors import _connect
+
+    ray = pytest.importorskip("ray", reason="the ray extra is not installed: pip install -e '.[ray]'")
+    with socket.socket() as s:  # a port that was free a moment ago: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with pytest.raises(RunError, match=rf"cannot reach the Ray cluster at 127.0.0.1:{port} \(") as refused:
+        _connect(ray, f"127.0.0.1:{port}", None)
+    assert "\n" not in str(refused.value) and not ray.is_initialized()
