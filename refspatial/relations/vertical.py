@@ -13,6 +13,7 @@ STACK_TOLERANCE_M = 0.02  # A's bottom may sink this far below B's top (rims, so
 # half of the smaller and the smaller's centre lies under or over the larger. A plate's rim
 # reaching over a mug two boards down is not "straight above" it (annotator).
 OVERLAP_ABOVE = 0.5
+ABOVE_SINK_M = 0.015  # A's bottom may sink this far below B's top and still rest over it
 CAVITY_INNER = 0.9  # A's centre must lie within this share of the cavity's half extents
 CAVITY_OUTSIDE_M = 0.01  # clearly outside: centre beyond the container's footprint grown by this
 
@@ -28,7 +29,8 @@ def _overlap(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, bool]
     if key not in v.cache:
         small, big = (a, b) if polygon_area(_ground(a)) <= polygon_area(_ground(b)) else (b, a)
         share = overlap_share(_ground(small), _ground(big))
-        centred = share > 0 and bool(inside_convex(small.center_world_m[None, :2], _ground(big))[0])
+        # 5 mm inside, not on the line: a box's centre and its mesh's differ by millimetres
+        centred = share > 0 and bool(inside_convex(small.center_world_m[None, :2], _ground(big), -0.005)[0])
         v.cache[key] = (share, centred)
     return v.cache[key]
 
@@ -38,11 +40,11 @@ def above(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A is directly above B along gravity: ground outlines overlap and A's bottom is at or over B's top.
 
     True: the outlines overlap by >= 50 % of the smaller, the smaller's centre lies within the
-    larger, and A's bottom >= B's top - 2 cm. False: the outlines do not meet, or A's top is
+    larger (by 5 mm), and A's bottom >= B's top - 1.5 cm. False: the outlines do not meet, or A's top is
     below B's bottom + 2 cm. Undecided otherwise (partial overlap, interleaved heights).
     """
     overlap, centred = _overlap(v, a, b)
-    if overlap >= OVERLAP_ABOVE and centred and a.aabb_world_m[0, 2] >= b.aabb_world_m[1, 2] - STACK_TOLERANCE_M:
+    if overlap >= OVERLAP_ABOVE and centred and a.aabb_world_m[0, 2] >= b.aabb_world_m[1, 2] - ABOVE_SINK_M:
         return True
     if overlap == 0.0 or a.aabb_world_m[1, 2] <= b.aabb_world_m[0, 2] + STACK_TOLERANCE_M:
         return False
