@@ -151,6 +151,26 @@ def dress(looks: Looks, category: str, material: str, rgb: tuple[float, float, f
     return mesh, Texture(key, image)
 
 
+def texture_bank(looks: Looks, categories: dict, colors: dict[str, tuple[float, float, float]]) -> int:
+    """Make every generated texture image that objects of ``categories`` (a catalogue's
+    CategorySpecs) and room surfaces can ask for, into the per-process image cache, and return
+    how many there are. A warm-up: scenes then find every image made (benchmarks call it to
+    measure a long run's steady state); records are the same with or without it."""
+    wanted = set()
+    for name, spec in categories.items():
+        if spec.mesh is not None:  # imported meshes bring their own images
+            continue
+        for material in spec.materials:
+            for look in (looks.looks[k] for k in looks.choices(name, material)):
+                wanted.update((look, colors[c], seed) for c in spec.colors for seed in range(PATTERN_SEEDS))
+    for names in looks.surfaces.values():
+        for look in (looks.looks[k] for k in names):
+            wanted.update((look, rgb, seed) for rgb in look.colors for seed in range(PATTERN_SEEDS))
+    for look, rgb, seed in sorted(wanted, key=lambda w: (w[0].name, w[1], w[2])):
+        textures.make(look.generator, look.params, rgb, seed, look.size)
+    return len(wanted)
+
+
 # ---------------------------------------------------------------- room surfaces
 
 
