@@ -337,13 +337,24 @@ def _far_from(pixels: np.ndarray, radius_px: float) -> np.ndarray:
     nearest possible distances (square roots of whole numbers) so rounding never flips a pixel."""
     if not pixels.any():  # scipy's answer for an image with no feature pixel, kept as it was
         return distance_transform_edt(~pixels) >= radius_px
-    d = cv2.distanceTransform((~pixels).view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     n = math.ceil(radius_px * radius_px)  # the smallest squared distance that is far enough
     while n > 0 and math.sqrt(n - 1) >= radius_px:
         n -= 1
     while math.sqrt(n) < radius_px:
         n += 1
-    return d >= (math.sqrt(n - 1) + math.sqrt(n)) / 2 if n > 0 else np.ones(pixels.shape, bool)
+    if n == 0:
+        return np.ones(pixels.shape, bool)
+    # Pixels beyond the radius from the box around every True pixel are far; inside the box
+    # grown by it, the transform of that window alone is exact, since it holds every True pixel.
+    rows, cols = np.flatnonzero(pixels.any(1)), np.flatnonzero(pixels.any(0))
+    reach = math.isqrt(n) + 1
+    r0, r1 = max(rows[0] - reach, 0), min(rows[-1] + reach + 1, pixels.shape[0])
+    c0, c1 = max(cols[0] - reach, 0), min(cols[-1] + reach + 1, pixels.shape[1])
+    d = cv2.distanceTransform(np.ascontiguousarray(~pixels[r0:r1, c0:c1]).view(np.uint8), cv2.DIST_L2,
+                              cv2.DIST_MASK_PRECISE)
+    far = np.ones(pixels.shape, bool)
+    far[r0:r1, c0:c1] = d >= (math.sqrt(n - 1) + math.sqrt(n)) / 2
+    return far
 
 
 def _cleared(clear: np.ndarray, uv: np.ndarray) -> np.ndarray:
