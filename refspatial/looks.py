@@ -196,7 +196,14 @@ def surface(looks: Looks, kind: str, rng: np.random.Generator, images: tuple[Pat
     rgb = look.colors[int(color_draw * len(look.colors))]
     image = textures.make(look.generator, look.params, rgb, seed, look.size)
     key = f"{look.name}/{seed}/" + "-".join(f"{c:.3f}" for c in rgb)
-    return SurfaceLook(look.name, _mean(image), Texture(key, image))
+    return SurfaceLook(look.name, _texture_mean(look.generator, look.params, rgb, seed, look.size), Texture(key, image))
+
+
+@functools.lru_cache(maxsize=textures.CACHE_IMAGES)
+def _texture_mean(kind: str, params: tuple, rgb: tuple, seed: int, size: tuple) -> tuple[float, float, float]:
+    """``_mean`` of a generated texture, memoised like the image itself: a room draws five to
+    seven surfaces, and averaging a 256x256 image each time cost 3 ms a record."""
+    return _mean(textures.make(kind, params, rgb, seed, size))
 
 
 @functools.lru_cache(maxsize=16)
