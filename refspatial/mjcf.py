@@ -45,6 +45,9 @@ def body_name(object_id: int) -> str:
 def build_spec(scene: Scene, materials: dict[str, MaterialSpec], opts: SpecOptions) -> mujoco.MjSpec:
     spec = mujoco.MjSpec()
     spec.modelname = scene.scene_id
+    # Worker processes each own one core: the compiler's mesh threads only add their start-up
+    # (1.2 of 13.5 ms a compile); the compiled model is the same.
+    spec.compiler.usethread = False
     spec.option.timestep = opts.timestep_s
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     _visual_settings(spec, scene, opts)

@@ -9,7 +9,8 @@ is named by stays what a person sees. All noise tiles, so a pattern wrapped arou
 cylinder or repeated over a floor shows no seam.
 
 Images are cached per process by (texture name, colour, seed): scenes reuse the same few
-hundred images, and making one costs a few milliseconds.
+hundred images (764 for the shipped catalogue and looks, 57 MiB, 2.2 s to make them all), and
+making one costs a few milliseconds. The cache holds them all, so a long run makes each once.
 """
 
 from __future__ import annotations
@@ -23,6 +24,9 @@ import numpy as np
 Image = np.ndarray  # (H, W, 3) float32 in [0, 1]
 Generator = Callable[[dict, np.ndarray, np.random.Generator, tuple[int, int]], Image]
 GENERATORS: dict[str, Generator] = {}
+# Every image the shipped catalogue and looks can ask for, with room to spare (a smaller cache
+# evicted images a long run asks for again: at 512 a few per cent of scenes remade some).
+CACHE_IMAGES = 2048
 
 
 def generator(name: str) -> Callable[[Generator], Generator]:
@@ -39,7 +43,7 @@ def make(kind: str, params: tuple[tuple[str, object], ...], rgb: tuple[float, fl
     return _make(kind, params, tuple(round(float(c), 4) for c in rgb), int(seed), tuple(size))
 
 
-@functools.lru_cache(maxsize=512)
+@functools.lru_cache(maxsize=CACHE_IMAGES)
 def _make(kind: str, params: tuple, rgb: tuple, seed: int, size: tuple) -> np.ndarray:
     rng = np.random.default_rng(seed)
     image = GENERATORS[kind](dict(params), np.asarray(rgb, dtype=np.float32), rng, size)

@@ -188,3 +188,24 @@ def test_grown_regions_hold_every_point_near_the_region(views):
             step *= rng.uniform(0, grow, (len(inside), 1)) / np.linalg.norm(step, axis=1, keepdims=True)
             assert _in_regions(v, c, inside + step, grow=grow).all(), (c, grow)
             assert not _in_regions(v, c, centre + np.array([[5.0, 5.0]]), grow=grow).any()
+
+
+@pytest.mark.parametrize("radius", [0.5, 1.0, 2 ** 0.5, 5.0, 19.2, 40.0])
+def test_far_from_equals_scipy_distance_transform(radius):
+    """The clearance mask (OpenCV's transform on a window) is scipy's whole-image one to the pixel,
+    whole-number radii and objects at the image's corners included."""
+    from scipy.ndimage import distance_transform_edt
+
+    from refspatial.relations.free_space import _far_from
+
+    rng = np.random.default_rng(7)
+    for k in range(6):
+        pixels = np.zeros((60, 90), dtype=bool)
+        for _ in range(k + 1):
+            r, c = rng.integers(0, 60), rng.integers(0, 90)
+            pixels[r:r + rng.integers(1, 12), c:c + rng.integers(1, 12)] = True
+        pixels[0, 0] = k % 2 == 0
+        pixels[-1, -1] = k % 3 == 0
+        assert np.array_equal(_far_from(pixels, radius), distance_transform_edt(~pixels) >= radius)
+    empty = np.zeros((20, 30), dtype=bool)
+    assert np.array_equal(_far_from(empty, radius), distance_transform_edt(~empty) >= radius)

@@ -143,3 +143,19 @@ def test_a_window_shows_the_part_of_a_panorama_it_faces(tmp_path: Path) -> None:
     red = (facing_y.rgb[..., 0] > 200) & (facing_y.rgb[..., 2] < 50)
     assert red.any() and abs(np.nonzero(red)[1].mean() - 35) < 4, "the mark sits mid-window"
     assert not ((facing_x.rgb[..., 0] > 200) & (facing_x.rgb[..., 2] < 50)).any()
+
+
+def test_texture_bank_holds_every_image_scenes_ask_for() -> None:
+    """After the bank, composing scenes of every family makes no new texture image."""
+    from refspatial.assets import load_catalogue
+    from refspatial.compose import compose
+    from refspatial.recipe import load_recipe
+
+    catalogue = load_catalogue()
+    made = looks.texture_bank(looks.load_looks(), catalogue.categories, catalogue.colors)
+    assert made <= textures.CACHE_IMAGES, "the image cache would evict part of the bank"
+    before = textures._make.cache_info().misses
+    for name in ("tabletop", "kitchen_counter", "shelf", "room"):
+        for seed in range(3):
+            compose(load_recipe(name), catalogue, seed)
+    assert textures._make.cache_info().misses == before

@@ -23,8 +23,10 @@ the anchor's extent, which must be free (1.5 cm from any footprint) and visible.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
@@ -324,8 +326,35 @@ def image_clearance(v: ViewFacts, support: int) -> np.ndarray:
     key = ("image_clearance", support)
     if key not in v.cache:
         objects = (v.seg >= 0) & (v.seg != support)
-        v.cache[key] = distance_transform_edt(~objects) >= IMAGE_CLEARANCE * v.width
+        v.cache[key] = _far_from(objects, IMAGE_CLEARANCE * v.width)
     return v.cache[key]
+
+
+def _far_from(pixels: np.ndarray, radius_px: float) -> np.ndarray:
+    """Bool (H, W): the exact Euclidean distance to the nearest True pixel is at least radius_px,
+    as ``distance_transform_edt(~pixels) >= radius_px``. OpenCV's exact transform takes a third
+    of scipy's time; its float32 distances are compared with a threshold halfway between the two
+    nearest possible distances (square roots of whole numbers) so rounding never flips a pixel."""
+    if not pixels.any():  # scipy's answer for an image with no feature pixel, kept as it was
+        return distance_transform_edt(~pixels) >= radius_px
+    n = math.ceil(radius_px * radius_px)  # the smallest squared distance that is far enough
+    while n > 0 and math.sqrt(n - 1) >= radius_px:
+        n -= 1
+    while math.sqrt(n) < radius_px:
+        n += 1
+    if n == 0:
+        return np.ones(pixels.shape, bool)
+    # Pixels beyond the radius from the box around every True pixel are far; inside the box
+    # grown by it, the transform of that window alone is exact, since it holds every True pixel.
+    rows, cols = np.flatnonzero(pixels.any(1)), np.flatnonzero(pixels.any(0))
+    reach = math.isqrt(n) + 1
+    r0, r1 = max(rows[0] - reach, 0), min(rows[-1] + reach + 1, pixels.shape[0])
+    c0, c1 = max(cols[0] - reach, 0), min(cols[-1] + reach + 1, pixels.shape[1])
+    d = cv2.distanceTransform(np.ascontiguousarray(~pixels[r0:r1, c0:c1]).view(np.uint8), cv2.DIST_L2,
+                              cv2.DIST_MASK_PRECISE)
+    far = np.ones(pixels.shape, bool)
+    far[r0:r1, c0:c1] = d >= (math.sqrt(n - 1) + math.sqrt(n)) / 2
+    return far
 
 
 def _cleared(clear: np.ndarray, uv: np.ndarray) -> np.ndarray:
