@@ -265,3 +265,24 @@ def test_recalibrating_colour_words_does_not_read_the_table_it_rewrites(tiny_dat
             len(lab) == 3 for lab in table["prototypes"].values())
     finally:
         cw._table.cache_clear()
+
+
+def test_the_distance_between_round_things_is_between_their_outlines():
+    """An apple and a round stool side by side on a diagonal: their boxes' corners are 17 cm
+    apart, their surfaces 20.3 cm (annotator: "7 cm" where a ruler says 8.6)."""
+    def ball(i: int, x: float, y: float):
+        facts = _facts({"id": i, "category": "apple", "at": [x, y, 0.0], "size": [0.08, 0.08, 0.08]})
+        return dataclasses.replace(facts, outline_world=_disc(x, y, 0.04))
+
+    a, b = ball(0, -0.1, 0.1), ball(1, 0.1, 0.3)
+    assert PREDICATES["distance_between"](view(a, b), a, b).value == pytest.approx(np.hypot(0.2, 0.2) - 0.08, abs=2e-3)
+
+
+def test_nearer_to_the_camera_holds_in_a_straight_line_too():
+    """A cup 60 cm to the side is 17 cm nearer along the viewing direction than a mug ahead, but
+    only 3 cm nearer in a straight line from the lens: a person could read it either way."""
+    mug = _facts({"id": 0, "category": "mug", "at": [0.0, 0.2, 0.0], "size": [0.08, 0.08, 0.1]})
+    aside = _facts({"id": 1, "category": "cup", "at": [0.6, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
+    ahead = _facts({"id": 1, "category": "cup", "at": [0.5, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
+    assert PREDICATES["closer_to_camera"](view(mug, aside), aside, mug) is None
+    assert PREDICATES["closer_to_camera"](view(mug, ahead), ahead, mug) is True

@@ -86,8 +86,9 @@ def behind(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 @predicate("closer_to_camera", family="depth", arity=2, frame="camera")
 def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A is nearer the camera than B by both readings a person might take: its visible surface
-    (median depth over the visible mask) and its centre (the box centre's depth) are each
-    nearer by max(3 cm, 5 % of the nearer depth). A pencil lying towards the camera, whose
+    (median depth over the visible mask), its centre's depth and its centre's straight-line
+    distance from the camera are each nearer by max(3 cm, 5 % of the nearer). A pencil lying
+    towards the camera, whose
     visible surface is near but whose centre is far, is undecided against a hammer between.
     Undecided for things on different shelf boards: a camera above the shelf puts the higher
     board nearer in a straight line, while a person compares how far forward they stand.
@@ -100,7 +101,11 @@ def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     if ca is None or cb is None:
         return surface
     centre = compare(float(cb[2] - ca[2]), max(DEPTH_MARGIN_M, DEPTH_MARGIN_REL * min(ca[2], cb[2])))
-    return surface if surface == centre else None
+    # "Nearer to the camera" read as a straight line from the lens: two things 11 cm apart in
+    # depth but 1 cm apart that way, one off to the side, are not nearer and farther (annotator).
+    ra, rb = float(np.linalg.norm(ca)), float(np.linalg.norm(cb))
+    straight = compare(rb - ra, max(DEPTH_MARGIN_M, DEPTH_MARGIN_REL * min(ra, rb)))
+    return surface if surface == centre == straight else None
 
 
 @predicate("between", family="between", arity=3, frame="world")

@@ -107,6 +107,11 @@ class ObjectFacts:
             self._extents[key] = extent
         return extent
 
+    @property
+    def ground_outline(self) -> np.ndarray:
+        """The mesh's convex ground outline, or its footprint box where the facts lack one."""
+        return self.outline_world if self.outline_world is not None else self.footprint_world
+
     @cached_property
     def _extents(self) -> dict[bytes, float]:
         return {}
@@ -138,11 +143,13 @@ class ViewFacts:
         return int(self.seg.shape[0])
 
     def footprint_gap(self, a: ObjectFacts, b: ObjectFacts) -> float:
-        """Ground gap between two objects' footprints, memoised: touching, separated, near and
-        far all ask it, for both orders of each pair."""
+        """Ground gap between two objects, memoised: touching, separated, near, far and the
+        distance between them all ask it, for both orders of each pair. Measured between the
+        meshes' own ground outlines where the facts have them: between their boxes, an apple
+        and a stapler were 7 cm apart where a ruler says 8.6 (annotator)."""
         key = ("gap", *sorted((a.object_id, b.object_id)))
         if key not in self.cache:
-            self.cache[key] = gap_between(a.footprint_world, b.footprint_world)
+            self.cache[key] = gap_between(a.ground_outline, b.ground_outline)
         return self.cache[key]
 
     def stacked(self, a: ObjectFacts, b: ObjectFacts) -> bool:

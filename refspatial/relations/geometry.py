@@ -77,9 +77,18 @@ def inside_convex(points: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np
     return np.all(points @ normals.T - offsets <= grow, axis=1)
 
 
+def _separated(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two convex polygons are apart: some edge direction of either splits them (the
+    separating axis test; vectorised, as outlines have dozens of corners)."""
+    edges = np.concatenate([_next(a) - a, _next(b) - b])
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]])
+    pa, pb = a @ normals.T, b @ normals.T
+    return bool(np.any((pa.max(0) < pb.min(0)) | (pb.max(0) < pa.min(0))))
+
+
 def gap_between(a: np.ndarray, b: np.ndarray) -> float:
-    """Smallest distance between two convex polygons (0 when they overlap)."""
-    if boxes_meet(a, b) and len(clip_convex(a, b)) >= 3:
+    """Smallest distance between two convex polygons (0 when they overlap or touch)."""
+    if boxes_meet(a, b) and not _separated(a, b):
         return 0.0
     best = np.inf
     for p, q in ((a, b), (b, a)):  # every corner of one against every edge of the other

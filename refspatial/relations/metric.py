@@ -104,9 +104,9 @@ def far(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
            kind="measure", symmetric=True)
 def distance_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity:
     """The gap between the two objects, as a person measures "the distance between" them: the
-    shortest distance between their boxes (the gap between their oriented footprints on the
-    ground, combined with the height between their boxes when they rest on different levels),
-    in metres; 0 when they touch."""
+    shortest distance between them on the ground (between the meshes' own ground outlines,
+    so a round apple is round), combined with the height between their boxes when they rest
+    on different levels, in metres; 0 when they touch."""
     gap, _ = _gap_and_scale(v, a, b)
     return Quantity(float(gap), "m")
 

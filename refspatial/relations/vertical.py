@@ -18,19 +18,15 @@ CAVITY_INNER = 0.9  # A's centre must lie within this share of the cavity's half
 CAVITY_OUTSIDE_M = 0.01  # clearly outside: centre beyond the container's footprint grown by this
 
 
-def _ground(o: ObjectFacts) -> np.ndarray:
-    return o.outline_world if o.outline_world is not None else o.footprint_world
-
-
 def _overlap(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, bool]:
     """Share of the smaller ground outline that the larger covers, and whether the smaller's
     centre lies within the larger; memoised per pair (above and below ask both orders)."""
     key = ("footprint_overlap", *sorted((a.object_id, b.object_id)))
     if key not in v.cache:
-        small, big = (a, b) if polygon_area(_ground(a)) <= polygon_area(_ground(b)) else (b, a)
-        share = overlap_share(_ground(small), _ground(big))
+        small, big = (a, b) if polygon_area(a.ground_outline) <= polygon_area(b.ground_outline) else (b, a)
+        share = overlap_share(small.ground_outline, big.ground_outline)
         # 5 mm inside, not on the line: a box's centre and its mesh's differ by millimetres
-        centred = share > 0 and bool(inside_convex(small.center_world_m[None, :2], _ground(big), -0.005)[0])
+        centred = share > 0 and bool(inside_convex(small.center_world_m[None, :2], big.ground_outline, -0.005)[0])
         v.cache[key] = (share, centred)
     return v.cache[key]
 
