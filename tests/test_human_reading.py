@@ -286,3 +286,13 @@ def test_nearer_to_the_camera_holds_in_a_straight_line_too():
     ahead = _facts({"id": 1, "category": "cup", "at": [0.5, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
     assert PREDICATES["closer_to_camera"](view(mug, aside), aside, mug) is None
     assert PREDICATES["closer_to_camera"](view(mug, ahead), ahead, mug) is True
+
+
+def test_extents_along_a_turned_axis_are_the_outline_s_own_shadow():
+    """A box centre is the middle of the outline only along the world's axes: along the camera's
+    turned right axis a triangular outline's shadow is not centred on it (scissors: strict audit)."""
+    wedge = _facts({"id": 0, "category": "scissors", "at": [0.1, 0.1, 0.0], "size": [0.2, 0.2, 0.01]})
+    wedge = dataclasses.replace(wedge, outline_world=np.array([[0.0, 0.0], [0.2, 0.0], [0.0, 0.2]]))
+    axis = np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+    centre = float(wedge.center_world_m @ axis)
+    assert wedge.interval_along(axis, centre) == pytest.approx((0.0, 0.2 / np.sqrt(2)))
