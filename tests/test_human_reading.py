@@ -296,3 +296,22 @@ def test_extents_along_a_turned_axis_are_the_outline_s_own_shadow():
     axis = np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
     centre = float(wedge.center_world_m @ axis)
     assert wedge.interval_along(axis, centre) == pytest.approx((0.0, 0.2 / np.sqrt(2)))
+
+
+def test_narrower_holds_by_every_reading_of_wide():
+    """A fork lying across the view is wider side to side than an orange, but thinner: "the orange
+    narrower than the fork" is not something a person agrees with (annotator). A box beside a
+    mug is wider every way."""
+    fork = _facts({"id": 0, "category": "fork", "at": [-0.2, 0.2, 0.0], "size": [0.18, 0.025, 0.02]})
+    orange = _facts({"id": 1, "category": "orange", "at": [0.2, 0.2, 0.0], "size": [0.075, 0.075, 0.075]})
+    assert PREDICATES["thinner_than"](view(fork, orange), orange, fork) is None
+    box = _facts({"id": 0, "category": "box", "at": [-0.2, 0.2, 0.0], "size": [0.3, 0.2, 0.1]})
+    assert PREDICATES["thinner_than"](view(box, orange), orange, box) is True
+
+
+def test_in_front_of_is_not_asked_across_shelf_boards():
+    bottom = _facts({"id": 0, "category": "jar", "at": [0.0, 0.25, 0.0], "size": [0.08, 0.08, 0.12]})
+    top = _facts({"id": 1, "category": "jar", "at": [0.1, 0.0, 0.76], "size": [0.08, 0.08, 0.12], "support": -3})
+    assert PREDICATES["in_front_of"](view(bottom, top), top, bottom) is None
+    level = _facts({"id": 1, "category": "jar", "at": [0.1, 0.0, 0.0], "size": [0.08, 0.08, 0.12]})
+    assert PREDICATES["in_front_of"](view(bottom, level), level, bottom) is True

@@ -73,14 +73,17 @@ def right_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 def in_front_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """The whole of A lies nearer the viewer than the whole of B along the ground-projected
     forward axis (extents at least 1 cm apart, neither resting on or in the other). False when
-    the whole of A lies beyond B; undecided otherwise."""
+    the whole of A lies beyond B; undecided otherwise, and across shelf boards (a jar on the top
+    board is above the one on the bottom board, not in front of it: annotator)."""
+    if v.on_other_levels(a, b):
+        return None
     return clear_order(v, a, b, v.forward_axis, a.forward_m, b.forward_m)
 
 
 @predicate("behind", family="front_behind", arity=2, frame="viewer", inverse="in_front_of")
 def behind(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """The whole of A lies beyond the whole of B along the forward axis; as in_front_of."""
-    return clear_order(v, b, a, v.forward_axis, b.forward_m, a.forward_m)
+    return in_front_of(v, b, a)
 
 
 @predicate("closer_to_camera", family="depth", arity=2, frame="camera")
