@@ -15,7 +15,7 @@ import cv2
 import mujoco
 import numpy as np
 
-from .scene import BOARD_M, Light, Prop, Room, Scene, Surface, Texture
+from .scene import BOARD_M, LEG_HALF_M, LEG_INSET_M, Light, Prop, Room, Scene, Surface, Texture
 from .textures import kelvin_rgb
 
 ROOM_GROUP = 2  # drawn, casts no shadow (render.py), never an object
@@ -136,7 +136,8 @@ def _table(spec: mujoco.MjSpec, scene: Scene, material: str | None, friction) ->
     leg_h = (t.top_z_m + (max(t.levels_m) if t.levels_m else 0.0) - TABLE_THICKNESS_M) / 2
     for sx in (-1, 1):
         for sy in (-1, 1):
-            world.add_geom(type=BOX, size=[0.025, 0.025, leg_h], pos=[sx * (half[0] - 0.05), sy * (half[1] - 0.05), leg_h],
+            world.add_geom(type=BOX, size=[LEG_HALF_M, LEG_HALF_M, leg_h],
+                           pos=[sx * (half[0] - LEG_INSET_M), sy * (half[1] - LEG_INSET_M), leg_h],
                            material=material, contype=0, conaffinity=0)
 
 

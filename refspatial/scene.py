@@ -113,6 +113,10 @@ class PlacedObject:
 
 
 BOARD_M = 0.02  # shelf board thickness
+# Legs stand this far in from the table's corners (centre) and are this wide (half); on a shelf
+# they go on up as posts through every board below the highest.
+LEG_INSET_M = 0.05
+LEG_HALF_M = 0.025
 
 
 @dataclass(frozen=True)

@@ -209,3 +209,22 @@ def test_far_from_equals_scipy_distance_transform(radius):
         assert np.array_equal(_far_from(pixels, radius), distance_transform_edt(~pixels) >= radius)
     empty = np.zeros((20, 30), dtype=bool)
     assert np.array_equal(_far_from(empty, radius), distance_transform_edt(~empty) >= radius)
+
+
+def test_no_free_spot_between_a_shelf_s_posts():
+    """The posts stand on every board below the highest: the strip at each end between them is not
+    free (annotator: a spot wedged between the end posts). The highest board has no posts on it."""
+    import dataclasses
+
+    from helpers import obj, view
+
+    from refspatial.relations.free_space import _platform
+    from refspatial.scene import LEG_HALF_M, LEG_INSET_M
+
+    shelf = dataclasses.replace(view(obj(0, "mug", "red", 0.0, 0.0)), table_levels_m=(0.38, 0.76))
+    hx = shelf.table_size_m[0] / 2
+    for support, inner in ((TABLE, True), (-2, True), (-3, False)):
+        mug = dataclasses.replace(shelf.objects[0], support=support)
+        _, polygon, _ = _platform(shelf, (Constraint("sector", (0,), "left"),), [mug])
+        reach = polygon[:, 0].max()
+        assert (reach <= hx - LEG_INSET_M - LEG_HALF_M) if inner else reach == pytest.approx(hx), support

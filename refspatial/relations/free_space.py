@@ -31,6 +31,7 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
 
+from ..scene import LEG_HALF_M, LEG_INSET_M
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import inside_convex, project
 from .registry import predicate
@@ -150,7 +151,12 @@ def _platform(v: ViewFacts, constraints, anchors: list[ObjectFacts]):
     support = supports.pop()
     if support <= TABLE:  # the table top, or a shelf board (support -(k + 2)) of the same extent
         hx, hy = np.asarray(v.table_size_m) / 2
-        z = v.table_top_z_m if support == TABLE else v.table_top_z_m + v.table_levels_m[-support - 2]
+        level = -1 if support == TABLE else -support - 2
+        z = v.table_top_z_m + (v.table_levels_m[level] if level >= 0 else 0.0)
+        if v.table_levels_m and level < len(v.table_levels_m) - 1:
+            # A shelf's posts stand on every board below the highest: the strip at each end
+            # between them holds nothing a person could place (annotator: a spot wedged there).
+            hx -= LEG_INSET_M + LEG_HALF_M + CLEARANCE_M
         return support, np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]), z
     base = v.objects[support]
     return support, base.footprint_world, float(base.aabb_world_m[1, 2])
