@@ -51,8 +51,9 @@ def clear_order(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, axis: np.ndarray, 
     return None
 
 
-def depth_margin(a: ObjectFacts, b: ObjectFacts) -> float:
-    return max(DEPTH_MARGIN_M, DEPTH_MARGIN_REL * min(a.depth_m, b.depth_m))
+def nearer(a_m: float, b_m: float) -> Verdict:
+    """Whether a distance a_m is clearly shorter than b_m: by max(3 cm, 5 % of the shorter)."""
+    return compare(b_m - a_m, max(DEPTH_MARGIN_M, DEPTH_MARGIN_REL * min(a_m, b_m)))
 
 
 @predicate("left_of", family="left_right", arity=2, frame="viewer", inverse="right_of")
@@ -88,26 +89,25 @@ def behind(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 @predicate("closer_to_camera", family="depth", arity=2, frame="camera")
 def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A is nearer the camera than B by both readings a person might take: its visible surface
+    """A is nearer the camera than B by every reading a person might take: its visible surface
     (median depth over the visible mask), its centre's depth and its centre's straight-line
     distance from the camera are each nearer by max(3 cm, 5 % of the nearer). A pencil lying
-    towards the camera, whose
-    visible surface is near but whose centre is far, is undecided against a hammer between.
+    towards the camera, whose visible surface is near but whose centre is far, is undecided
+    against a hammer between.
     Undecided for things on different shelf boards: a camera above the shelf puts the higher
     board nearer in a straight line, while a person compares how far forward they stand.
     Its converse, "farther from the camera than", is this predicate with the objects swapped.
     """
     if not (np.isfinite(a.depth_m) and np.isfinite(b.depth_m)) or v.on_other_levels(a, b):
         return None
-    surface = compare(b.depth_m - a.depth_m, depth_margin(a, b))
+    surface = nearer(a.depth_m, b.depth_m)
     ca, cb = v.centre_in_camera(a), v.centre_in_camera(b)
     if ca is None or cb is None:
         return surface
-    centre = compare(float(cb[2] - ca[2]), max(DEPTH_MARGIN_M, DEPTH_MARGIN_REL * min(ca[2], cb[2])))
+    centre = nearer(float(ca[2]), float(cb[2]))
     # "Nearer to the camera" read as a straight line from the lens: two things 11 cm apart in
     # depth but 1 cm apart that way, one off to the side, are not nearer and farther (annotator).
-    ra, rb = float(np.linalg.norm(ca)), float(np.linalg.norm(cb))
-    straight = compare(rb - ra, max(DEPTH_MARGIN_M, DEPTH_MARGIN_REL * min(ra, rb)))
+    straight = nearer(float(np.linalg.norm(ca)), float(np.linalg.norm(cb)))
     return surface if surface == centre == straight else None
 
 

@@ -86,6 +86,17 @@ def _separated(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.any((pa.max(0) < pb.min(0)) | (pb.max(0) < pa.min(0))))
 
 
+def widths(poly: np.ndarray) -> tuple[float, float]:
+    """A convex polygon's least width (its narrowest shadow over its own edge normals) and its
+    longest span (the largest distance between two corners)."""
+    edges = _next(poly) - poly
+    lengths = np.linalg.norm(edges, axis=1)
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]])[lengths > 0] / lengths[lengths > 0, None]
+    shadows = poly @ normals.T
+    spans = np.linalg.norm(poly[:, None, :] - poly[None, :, :], axis=-1)
+    return float((shadows.max(0) - shadows.min(0)).min()), float(spans.max())
+
+
 def gap_between(a: np.ndarray, b: np.ndarray) -> float:
     """Smallest distance between two convex polygons (0 when they overlap or touch)."""
     if boxes_meet(a, b) and not _separated(a, b):

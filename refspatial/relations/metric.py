@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .facts import ObjectFacts, ViewFacts
+from .geometry import widths
 from .registry import Quantity, Verdict, compare, predicate
 from .vertical import containment
 
@@ -51,18 +52,12 @@ def smaller_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     return bigger_than(v, b, a)
 
 
-def _plan_widths(o: ObjectFacts) -> tuple[float, float]:
-    """The object's own narrowest and widest horizontal extents (its ground outline's least
-    width, over the outline's edge directions, and its longest span)."""
-    ground = o.ground_outline
-    if ground is None:
-        return float(o.footprint_m.min()), float(o.footprint_m.max())
-    edges = np.concatenate([ground[1:], ground[:1]]) - ground
-    lengths = np.linalg.norm(edges, axis=1)
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]])[lengths > 0] / lengths[lengths > 0, None]
-    shadows = ground @ normals.T
-    spans = np.linalg.norm(ground[:, None, :] - ground[None, :, :], axis=-1)
-    return float((shadows.max(0) - shadows.min(0)).min()), float(spans.max())
+def _plan_widths(v: ViewFacts, o: ObjectFacts) -> tuple[float, float]:
+    """The object's own narrowest and widest horizontal extents (memoised per view)."""
+    key = ("plan_widths", o.object_id)
+    if key not in v.cache:
+        v.cache[key] = widths(o.ground_outline)
+    return v.cache[key]
 
 
 @predicate("wider_than", family="wide_thin", arity=2, frame="viewer", inverse="thinner_than")
@@ -73,16 +68,10 @@ def wider_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     otherwise. An orange is not "narrower than a fork" lying across the view: the fork is
     longer, but thinner (annotator)."""
     readings = [(a.extent_along(v.right_axis), b.extent_along(v.right_axis)),
-                *zip(_cached_widths(v, a), _cached_widths(v, b))]
+                *zip(_plan_widths(v, a), _plan_widths(v, b))]
     verdicts = {_relative(wa - wb, max(wa, wb), WIDTH_MARGIN) for wa, wb in readings}
     return verdicts.pop() if len(verdicts) == 1 else None
 
-
-def _cached_widths(v: ViewFacts, o: ObjectFacts) -> tuple[float, float]:
-    key = ("plan_widths", o.object_id)
-    if key not in v.cache:
-        v.cache[key] = _plan_widths(o)
-    return v.cache[key]
 
 
 @predicate("thinner_than", family="wide_thin", arity=2, frame="viewer", inverse="wider_than")
