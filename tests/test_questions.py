@@ -144,13 +144,54 @@ def test_chained_anchors_count_their_own_steps_and_name_each_object_once(steps):
                     program, values = run(ref, v)
                     assert values[-1] == target.object_id and count_steps(program) == steps == ref.steps
                     assert not is_degenerate(program, v)
-                    named = [a.object_id for rel in ref.relations for a in rel.anchors]
+                    named = [a.object_id for a in dict.fromkeys(a for rel in ref.relations for a in rel.anchors)]
                     named += [b.object_id for a in _chained(ref) for rel in a.relations for b in rel.anchors]
                     assert target.object_id not in named and len(set(named)) == len(named)
                     for a in _chained(ref):
                         assert len(a.relations) == 1 and a is ref.relations[-1].anchors[-1]
                         chained += 1
     assert chained > 0
+
+
+def test_two_phrases_on_one_anchor_find_it_once_and_count_three_steps():
+    """Two cups left of the plate and two behind it: only "left of and behind the plate" picks the
+    back-left one. The plate is one node of the program and named once in the words."""
+    v = view(obj(0, "cup", "red", -0.25, 0.3), obj(1, "cup", "red", -0.25, -0.1), obj(2, "cup", "red", 0.25, 0.3),
+             obj(3, "plate", "white", 0.0, 0.1, size=0.12))
+    pairs = []
+    for seed in range(12):
+        v.cache.clear()
+        for ref in anchored_refs(v, v.objects[0], 3, np.random.default_rng(seed), Phrasebook.get().phrased, wanted=8):
+            if len(ref.relations) == 2 and ref.relations[0].anchors == ref.relations[1].anchors:
+                pairs.append(ref)
+    assert pairs, "no pair of phrases on one anchor in 12 seeds"
+    for ref in pairs:
+        program, values = run(ref, v)
+        assert values[-1] == 0 and count_steps(program) == ref.steps == 3 and not is_degenerate(program, v)
+        assert {r.predicate for r in ref.relations} == {"left_of", "behind"}
+        assert sum(n["op"] == "filter" and n["category"] == "plate" for n in program) == 1
+        text, _ = Phrasebook.get().describe(ref, np.random.default_rng(1), v)
+        assert text.count("plate") == 1 and " and " in text and text.endswith("the plate"), text
+
+
+def test_between_an_anchor_and_a_chained_anchor_is_five_steps_with_the_chain_last():
+    """"The cup between the plate and the bowl behind the mug": three objects and two phrases."""
+    v = view(obj(0, "cup", "red", 0.0, 0.1), obj(1, "cup", "red", 0.0, 0.45), obj(2, "plate", "white", -0.35, 0.1),
+             obj(3, "bowl", "green", 0.35, 0.1), obj(4, "bowl", "green", 0.35, 0.45), obj(5, "mug", "blue", 0.35, -0.2))
+    found = []
+    for seed in range(12):
+        v.cache.clear()
+        for ref in anchored_refs(v, v.objects[0], 5, np.random.default_rng(seed), Phrasebook.get().phrased, wanted=8):
+            (rel, *more) = ref.relations
+            if not more and rel.predicate == "between" and rel.anchors[-1].relations:
+                found.append(ref)
+    assert found, "no between with a chained anchor in 12 seeds"
+    for ref in found:
+        program, values = run(ref, v)
+        assert values[-1] == 0 and count_steps(program) == ref.steps == 5 and not is_degenerate(program, v)
+        chained = ref.relations[0].anchors[-1]
+        text, texts = Phrasebook.get().describe(ref, np.random.default_rng(0), v)
+        assert text.endswith(texts[chained]) and len(chained.relations) == 1, text
 
 
 def test_a_chained_description_reads_through_its_intermediate_object():

@@ -119,7 +119,7 @@ def _can_scene(front_y: float):
 
 def _side_prompts(v) -> list[str]:
     qa = []
-    for seed in range(4):
+    for seed in range(12):
         qa += questions_for_view(v, SPEC, np.random.default_rng(seed), "k")
     return [q["prompt"] for q in qa if {"on_facing_side", "on_back_side"} & set(q["predicates"])]
 

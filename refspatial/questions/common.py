@@ -43,13 +43,26 @@ def pick_target(view: ViewFacts, rng: np.random.Generator):
     The camera aims at the middle of the scene, so uniform targets would pile
     answer points up in the central image cells.
     """
+    return view.askable()[int(rng.choice(len(view.askable()), p=_target_weights(view)))]
+
+
+def target_order(view: ViewFacts, rng: np.random.Generator) -> list:
+    """Every askable object once, in a random order weighted as ``pick_target`` draws: a
+    description that fits only one object of six (a between, a five-step chain) is found
+    by going down the list, where repeated draws keep landing on the same favoured few."""
     objs = view.askable()
+    keys = rng.random(len(objs)) ** (1.0 / _target_weights(view))  # weighted sampling without replacement
+    return [objs[int(k)] for k in np.argsort(-keys, kind="stable")]
+
+
+def _target_weights(view: ViewFacts) -> np.ndarray:
     if TARGET_WEIGHTS_KEY not in view.cache:
+        objs = view.askable()
         centre = np.array([view.width / 2, view.height / 2])
         diag = float(np.hypot(view.width, view.height))
         w = np.array([0.05 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs]) ** 3
         view.cache[TARGET_WEIGHTS_KEY] = w / w.sum()
-    return objs[int(rng.choice(len(objs), p=view.cache[TARGET_WEIGHTS_KEY]))]
+    return view.cache[TARGET_WEIGHTS_KEY]
 
 
 def over_objects(view: ViewFacts, objects, node: Node, rng) -> tuple[list[Node], list, list[str]] | None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..relations import ViewFacts
-from .common import QA, make_qa, pick_target, point_qa
+from ..relations import ObjectFacts, ViewFacts
+from .common import QA, make_qa, point_qa, target_order
 from .phrases import Phrasebook
 from .program import Node, execute
 from .refer import Ref, anchored_refs, compile_ref, simple_refs
@@ -32,13 +32,25 @@ def describe_target(view: ViewFacts, target, steps: int, rng: np.random.Generato
     return refs[int(rng.integers(len(refs)))] if refs else None
 
 
+def first_described(view: ViewFacts, steps: int, rng: np.random.Generator,
+                    any_category: bool = False) -> tuple[ObjectFacts, Ref] | None:
+    """(target, description) for the first object in ``target_order`` that has a description of
+    ``steps`` steps (descriptions that do not fit are remembered per view, so trying every object
+    costs each search once)."""
+    for target in target_order(view, rng):
+        ref = describe_target(view, target, steps, rng, any_category)
+        if ref is not None:
+            return target, ref
+    return None
+
+
 def described_target(views: dict[str, ViewFacts], steps: int, rng: np.random.Generator, where: str = "self"):
     """(target, its description's words, the program resolving it) in view ``where``, or None."""
     view = views[where]
-    target = pick_target(view, rng)
-    ref = describe_target(view, target, steps, rng)
-    if ref is None:
+    found = first_described(view, steps, rng)
+    if found is None:
         return None
+    target, ref = found
     text, texts = Phrasebook.get().describe(ref, rng, view)
     program: list[Node] = []
     compile_ref(ref, program, texts, view=where)
@@ -58,10 +70,12 @@ def location(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random
 def identify(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
     """Which object satisfies these relations? Answered with its name, or by pointing."""
     view = views["self"]
-    target = pick_target(view, rng)
-    ref = describe_target(view, target, steps, rng, any_category=True)
+    found = first_described(view, steps, rng, any_category=True)
+    if found is None:
+        return None
+    target, ref = found
     name_ref = simple_refs(view, target)[:1]
-    if ref is None or not name_ref:
+    if not name_ref:
         return None
     book = Phrasebook.get()
     texts: dict[Ref, str] = {}

@@ -33,6 +33,11 @@ class Phrasebook:
         rel = self.data["relations"]
         return set(rel) | {f"{n}:reverse" for n, e in rel.items() if "reverse" in e}
 
+    @property
+    def anchor_pairs(self) -> set[frozenset[str]]:
+        """Predicates that may share one anchor in a description ("left of and behind the plate")."""
+        return {frozenset(p) for p in self.data["anchor_pairs"]}
+
     def pick(self, options: list[str], rng: np.random.Generator) -> str:
         return options[int(rng.integers(len(options)))]
 
@@ -63,8 +68,12 @@ class Phrasebook:
 
     def clauses(self, ref: Ref, rng: np.random.Generator, view: ViewFacts | None,
                 texts: dict[Ref, str]) -> str:
-        """Just the relation clauses of a description ("to the left of the mug and near the bowl")."""
-        return " and ".join(self._relation(r, rng, texts, view) for r in ref.relations)
+        """Just the relation clauses of a description ("to the left of the mug and near the bowl").
+        Phrases in a row on the same anchor share its words: "to the left of and behind the plate"."""
+        rels = ref.relations
+        return " and ".join(self._relation(r, rng, texts, view, named=not (k + 1 < len(rels) and r.anchors
+                                                                          and rels[k + 1].anchors == r.anchors))
+                            for k, r in enumerate(rels))
 
     def _describe(self, ref: Ref, rng, texts: dict[Ref, str], view) -> str:
         noun = f"{ref.color} {ref.name}" if ref.color else ref.name
@@ -75,8 +84,9 @@ class Phrasebook:
         texts[ref] = text
         return text
 
-    def _relation(self, rel: Relation, rng, texts: dict[Ref, str], view) -> str:
-        anchors = [self._describe(a, rng, texts, view) for a in rel.anchors]
+    def _relation(self, rel: Relation, rng, texts: dict[Ref, str], view, named: bool = True) -> str:
+        """The phrase and its anchors' words; just the phrase when the next one names them (``named``)."""
+        anchors = [self._describe(a, rng, texts, view) for a in rel.anchors] if named else []
         side = view.objects[rel.anchors[0].object_id].front_side if view and rel.anchors else "front"
         phrase = self.relation_phrase(rel.predicate, rel.reverse, rng, side=side)
         return f"{phrase} {' and '.join(anchors)}" if anchors else phrase

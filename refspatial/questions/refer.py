@@ -46,11 +46,6 @@ class Relation:
     anchors: tuple["Ref", ...]  # none for unary predicates (at the table's edge)
     reverse: bool = False  # the anchor is the predicate's subject ("farther from the camera than")
 
-    @property
-    def steps(self) -> int:
-        """The phrase tying the anchors to the subject, plus each anchor's own steps."""
-        return 1 + sum(a.anchor_steps for a in self.anchors)
-
 
 @dataclass(frozen=True)
 class Ref:
@@ -63,12 +58,19 @@ class Ref:
 
     @property
     def steps(self) -> int:
-        return max(1, sum(r.steps for r in self.relations))
+        return max(1, _relation_steps(self.relations))
 
     @property
     def anchor_steps(self) -> int:
         """Steps as an anchor: the anchor object, plus the relations that pick it when it is chained."""
-        return 1 + sum(r.steps for r in self.relations)
+        return 1 + _relation_steps(self.relations)
+
+
+def _relation_steps(relations: tuple[Relation, ...]) -> int:
+    """One step per phrase, plus each anchor's steps once: "left of and behind the plate" finds the
+    plate once (RefSpatial-Bench counts anchor objects and phrases)."""
+    anchors = {a for r in relations for a in r.anchors}
+    return len(relations) + sum(a.anchor_steps for a in anchors)
 
 
 def compile_ref(ref: Ref, program: list[Node], texts: dict[Ref, str] | None = None, view: str = "self") -> int:
@@ -80,8 +82,10 @@ def compile_ref(ref: Ref, program: list[Node], texts: dict[Ref, str] | None = No
     idx = _add(program, {"op": "scene", "view": view})
     idx = _add(program, {"op": "filter", "inputs": [idx], "category": ref.category, "color": ref.color,
                          "view": view})
+    compiled: dict[Ref, int] = {}  # an anchor named by two phrases is one node, found once
     for rel in ref.relations:
-        anchors = [compile_ref(a, program, texts, view) for a in rel.anchors]
+        anchors = [compiled[a] if a in compiled else compiled.setdefault(a, compile_ref(a, program, texts, view))
+                   for a in rel.anchors]
         idx = _add(program, {"op": "relate", "inputs": [idx, *anchors], "predicate": rel.predicate,
                              "reverse": rel.reverse, "view": view})
     if ref.ordinal:
@@ -179,17 +183,20 @@ def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
 
 
 # Part kinds and their step counts: unary (a phrase: 1 step), binary (an anchor and a phrase: 2),
-# between (two anchors and a phrase: 3), and the chained kinds, a phrase tying the target to an
+# between (two anchors and a phrase: 3), pair (two phrases tied to one anchor, "to the left of and
+# behind the plate": 3; the pairs a person reads as one direction are templates.yaml's
+# `anchor_pairs`), and the chained kinds, a phrase tying the target to an
 # anchor that is itself picked by a relation: chain3 ("left of the bowl at the table's edge": 3),
-# chain4 ("left of the object behind the book": 4), chain5 (an anchor found in three steps: 5).
+# chain4 ("left of the object behind the book": 4), chain5 (an anchor found in three steps: 5),
+# between_chain ("between the plate and the bowl behind the mug": 5).
 # Chains carry most long descriptions: two independent relations, each needed, rarely fit among a
 # handful of objects. A chain goes last in its shape, so that no phrase after it can be read as
 # part of the anchor's description.
-COMBOS = {1: (("unary",),), 2: (("binary",),), 3: (("between",), ("binary", "unary"), ("chain3",)),
+COMBOS = {1: (("unary",),), 2: (("binary",),), 3: (("between",), ("binary", "unary"), ("chain3",), ("pair",)),
           4: (("binary", "binary"), ("chain4",)),
           5: (("between", "binary"), ("binary", "binary", "unary"), ("unary", "chain4"), ("binary", "chain3"),
-              ("chain5",))}
-CHAIN_ANCHOR_STEPS = {"chain3": 1, "chain4": 2, "chain5": 3}  # steps of the chained anchor's own relations
+              ("chain5",), ("pair", "binary"), ("between_chain",))}
+CHAIN_ANCHOR_STEPS = {"chain3": 1, "chain4": 2, "chain5": 3, "between_chain": 2}  # the chained anchor's own relations' steps
 # A chained anchor is picked by one relation: with two, "the mug left of the object behind the
 # book and near the bowl" would not say whether the mug or the object is near the bowl.
 ANCHOR_COMBOS = {1: (("unary",),), 2: (("binary",),), 3: (("between",),)}
@@ -222,12 +229,12 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
         # Choose the first part's predicate by the balance weights (rare relations up), so frequent
 # relations do not crowd out rare ones.
         while combos and len(out) < wanted:
-            names = sorted({c[0].rel.predicate for c in combos})
+            names = sorted({c[0].rels[0].predicate for c in combos})
             name = names[weighted_index(rng, [PREDICATE_WEIGHTS.get(n, 1.0) for n in names])]
-            same = [c for c in combos if c[0].rel.predicate == name]
+            same = [c for c in combos if c[0].rels[0].predicate == name]
             chosen = same[int(rng.integers(len(same)))]
             combos.remove(chosen)
-            rels = tuple(p.rel for p in chosen)
+            rels = tuple(r for p in chosen for r in p.rels)
             ref = Ref(target.object_id, category, "object" if any_category else target.name, color, relations=rels)
             if resolves(ref, view):  # the sets already say it fits; the program is the final word
                 out.append(ref)
@@ -238,12 +245,13 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
 
 @dataclass(frozen=True, eq=False)
 class _Part:
-    """A relation part with what it does to one head's candidates (precomputed for fast search)."""
+    """A relation part with what it does to one head's candidates (precomputed for fast search):
+    one relation, or for a pair two relations to the same anchor, applied in order."""
 
-    rel: Relation
+    rels: tuple[Relation, ...]
     # Two parts may be combined only if they share no object and no predicate.
     objects: int  # bit mask of the ids of every object the part names, chained anchors included
-    predicate: int  # index of the predicate
+    predicates: int  # bit mask of the predicates' indices
     # Candidate sets as bit masks (bit i: object i): the search tests up to ~10^5 combinations
     # per description, as whole arrays of masks at once.
     kept: int  # candidates it keeps
@@ -265,15 +273,38 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, head: int, kind: str, ph
     key = ("scored", target.object_id, head, kind)
     if key not in view.cache:
         parts = []
-        if head:
+        if kind == "pair":
+            parts = _pairs(head, _scored_parts(view, target, head, "binary", phrased, rng))
+        elif head:
             ids = [i for i in range(head.bit_length()) if head >> i & 1]
             for rel in _parts(view, target, kind, phrased, rng):
                 kept, undecided = _kept(view, rel, ids)
                 if kept >> target.object_id & 1:
                     named = _named_objects((rel,))
-                    parts.append(_Part(rel, named, _PREDICATE_INDEX[rel.predicate], kept, undecided))
+                    parts.append(_Part((rel,), named, 1 << _PREDICATE_INDEX[rel.predicate], kept, undecided))
         view.cache[key] = parts
     return view.cache[key]
+
+
+def _pairs(head: int, binary: list[_Part]) -> list[_Part]:
+    """Two binary parts on the same plainly named anchor whose predicates read as one direction
+    together ("to the left of and behind the plate"), each ruling out a candidate the other keeps.
+    Run in order, the second relation meets only what the first kept: its undecided ones count
+    only there."""
+    from .phrases import Phrasebook  # phrases imports this module
+
+    allowed = Phrasebook.get().anchor_pairs
+    out = []
+    for i, a in enumerate(binary):
+        for b in binary[i + 1:]:
+            (ra,), (rb,) = a.rels, b.rels
+            if (ra.anchors != rb.anchors or ra.anchors[0].relations or ra.reverse or rb.reverse
+                    or frozenset((ra.predicate, rb.predicate)) not in allowed):
+                continue
+            if head & a.kept & ~b.kept and head & b.kept & ~a.kept:
+                out.append(_Part((ra, rb), a.objects, a.predicates | b.predicates, a.kept & b.kept,
+                                 a.undecided | (a.kept & b.undecided)))
+    return out
 
 
 _PREDICATE_INDEX = {name: k for k, name in enumerate(sorted(PREDICATES))}
@@ -308,13 +339,14 @@ def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
     Returns a boolean array with one axis per list. ``target`` is the target's bit."""
     n = len(lists)
     wide = max(head.bit_length(), *(p.kept.bit_length() | p.undecided.bit_length() | p.objects.bit_length()
+                                    | p.predicates.bit_length()
                                     for x in lists for p in x)) > 63
     dtype = object if wide else np.uint64  # Python ints past 63 objects: slower, same logic
 
     def column(k: int, field: str) -> np.ndarray:
         shape = [1] * n
         shape[k] = -1
-        return np.array([getattr(p, field) for p in lists[k]], dtype=int if field == "predicate" else dtype).reshape(shape)
+        return np.array([getattr(p, field) for p in lists[k]], dtype=dtype).reshape(shape)
 
     kept = [column(k, "kept") for k in range(n)]
     ok = np.ones([len(x) for x in lists], dtype=bool)
@@ -331,7 +363,7 @@ def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
         ok &= others != target
     for i in range(n):
         for j in range(i + 1, n):
-            ok &= ((column(i, "objects") & column(j, "objects")) == 0) & (column(i, "predicate") != column(j, "predicate"))
+            ok &= ((column(i, "objects") & column(j, "objects")) == 0) & ((column(i, "predicates") & column(j, "predicates")) == 0)
     return ok
 
 
@@ -345,6 +377,10 @@ def _parts(view: ViewFacts, target: ObjectFacts, kind: str, phrased: set[str], r
             parts = _binary_parts(view, target, _simple_anchors(view, target), phrased)
         elif kind == "between":
             parts = _between_parts(view, target, _simple_anchors(view, target)) if "between" in phrased else []
+        elif kind == "between_chain":
+            parts = _between_chain_parts(view, target, _simple_anchors(view, target),
+                                         _chained_anchors(view, target, CHAIN_ANCHOR_STEPS[kind], phrased, rng)
+                                         ) if "between" in phrased else []
         else:
             anchors = _chained_anchors(view, target, CHAIN_ANCHOR_STEPS[kind], phrased, rng)
             parts = _binary_parts(view, target, anchors, phrased)
@@ -435,6 +471,19 @@ def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref],
             if pred.inverse is None and f"{name}:reverse" in phrased and _holds(view, name, [anchor, target]):
                 parts.append(Relation(name, (ref,), reverse=True))
     return parts
+
+
+def _between_chain_parts(view: ViewFacts, target: ObjectFacts, simple: dict[int, Ref],
+                         chained: dict[int, Ref]) -> list[Relation]:
+    """Between two anchors, the second picked by a relation of its own: "between the plate and the
+    bowl behind the mug" (five steps: three objects, two phrases). The chained anchor comes last,
+    so its phrase can only be read as its own."""
+    out = []
+    for plain, chain in ((b, c) for b in sorted(simple) for c in sorted(chained) if b != c):
+        if (_named_objects(chained[chain].relations) >> plain & 1) == 0 and _holds(
+                view, "between", [target, view.objects[plain], view.objects[chain]]):
+            out.append(Relation("between", (simple[plain], chained[chain])))
+    return out
 
 
 def _between_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref]) -> list[Relation]:
