@@ -48,11 +48,36 @@ class Recorder:
 
 
 def same_files(a: Path, b: Path) -> None:
-    """Every file of dataset ``a`` equals ``b``'s, byte for byte, and neither has extras."""
+    """Every file of dataset ``a`` equals ``b``'s, byte for byte, and neither has extras.
+    Shards are compared first, and a shard that differs is named down to its first differing
+    record and field: a rare difference is then a finding, not a mystery."""
     names = sorted(str(p.relative_to(a)) for p in a.rglob("*") if p.is_file())
     assert names == sorted(str(p.relative_to(b)) for p in b.rglob("*") if p.is_file())
-    for name in names:
-        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    for name in sorted(names, key=lambda n: not n.endswith(".mcap")):
+        if (a / name).read_bytes() != (b / name).read_bytes():
+            raise AssertionError(f"{name} differs: {first_difference(a / name, b / name)}")
+
+
+def first_difference(a: Path, b: Path) -> str:
+    """Where two shards' records first differ (record index, key, field), or why they cannot be read."""
+    if a.suffix != ".mcap":
+        return "not a shard"
+    import numpy as np
+
+    from refspatial.records import ShardReader
+
+    ra, rb = ShardReader(a), ShardReader(b)
+    if len(ra) != len(rb):
+        return f"{len(ra)} records against {len(rb)}"
+    for i in range(len(ra)):
+        x, y = ra.read(i), rb.read(i)
+        for field in sorted(set(x) | set(y)):
+            u, v = x.get(field), y.get(field)
+            same = np.array_equal(u, v) if isinstance(u, np.ndarray) else json.dumps(u, sort_keys=True, default=str) == \
+                json.dumps(v, sort_keys=True, default=str)
+            if not same:
+                return f"record {i} ({x.get('key')}) field {field!r}"
+    return "same records, different bytes"
 
 
 def complete_shards_only(out: Path) -> list[str]:
