@@ -245,3 +245,22 @@ def test_a_repeated_corner_does_not_hide_the_inside_of_an_outline():
 
     square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     assert inside_convex(np.array([[0.5, 0.5], [2.0, 2.0]]), square).tolist() == [True, False]
+
+
+def test_a_stored_outline_does_not_depend_on_the_last_bits_of_the_pose():
+    """Posed vertices a few ulps apart (another process under load) once made qhull start its
+    walk round a round outline at another corner: the record's bytes changed, not its numbers.
+    The outline is taken from vertices rounded as stored and starts at its lowest-leftmost corner."""
+    from refspatial.relations.facts import _outline
+
+    rng = np.random.default_rng(5)
+    angles = np.linspace(0, 2 * np.pi, 240, endpoint=False)
+    ring = np.c_[0.04 * np.cos(angles), 0.04 * np.sin(angles), np.zeros_like(angles)]  # a plate's rim
+    verts = np.concatenate([ring, ring * 0.8 + [0, 0, 0.02], rng.normal(size=(50, 3)) * 0.01])
+    first = _outline(verts)
+    for _ in range(20):
+        noisy = verts * (1 + rng.normal(size=verts.shape) * 1e-15)
+        assert np.array_equal(_outline(noisy[rng.permutation(len(noisy))]), first)
+    lowest = np.lexsort((first[:, 0], first[:, 1]))[0]
+    (ax, ay), (bx, by) = first[1] - first[0], first[2] - first[1]
+    assert lowest == 0 and ax * by - ay * bx > 0  # counter-clockwise
