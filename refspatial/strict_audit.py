@@ -10,7 +10,8 @@ the camera -- and checks every relation a question relied on:
   oriented box where a record has none) do not overlap, and neither object rests on the other;
 - closer to the camera: nearer both by the visible surface (median depth over its mask) and by
   the box centre's depth;
-- bigger/smaller: larger both by enclosed volume and by box volume;
+- bigger/smaller: larger by enclosed volume, by box volume and by the area it covers in the
+  picture (its outline raised to its height, projected);
 - taller/shorter, wider/thinner: by at least 1 cm;
 - above/below: directly over or under (the smaller's centre within the larger's ground outline,
   one's bottom not below the other's top less 2 cm);
@@ -87,6 +88,7 @@ class View:
         self.boxes = {o["id"]: Box(o) for o in sample["scene"]["objects"]}
         T = np.asarray(sample["T_world_cam"])
         self.R, self.t = T[:3, :3], T[:3, 3]
+        self.K = np.asarray(sample["K"], float)
         self.right = _ground(self.R[:, 0])
         self.forward = _ground(self.R[:, 2])
         self.depth, self.seg, self.rgb = sample["depth_m"], sample["seg"], sample["rgb"]
@@ -105,6 +107,16 @@ class View:
 
     def centre_depth(self, a: Box) -> float:
         return float((self.R.T @ (a.centre - self.t))[2])
+
+    def looks_size(self, a: Box) -> float:
+        """Area in pixels of the image of the object's ground outline raised from its bottom to its
+        top (its box where the record has no outline): how big it looks from this camera."""
+        ring = a.outline if a.outline is not None else a.corners[:, :2]
+        lo, hi = a.span(Z)
+        solid = np.concatenate([np.c_[ring, np.full(len(ring), lo)], np.c_[ring, np.full(len(ring), hi)]])
+        cam = (solid - self.t) @ self.R
+        uv = (cam @ self.K.T)[:, :2] / cam[:, 2:3]
+        return float(ConvexHull(uv).volume)  # a 2-D hull's "volume" is its area
 
     def mean_lab(self, oid: int) -> np.ndarray | None:
         """CIE Lab of the mean colour of the object's pixels, None when it shows none."""
@@ -199,8 +211,10 @@ STRICT = {
     "in_front_of": lambda v, a, b: _before(v, a, b, v.forward),
     "behind": lambda v, a, b: _before(v, b, a, v.forward),
     "closer_to_camera": lambda v, a, b: v.surface_depth(a) < v.surface_depth(b) and v.centre_depth(a) < v.centre_depth(b),
-    "bigger_than": lambda v, a, b: a.volume > b.volume and a.box_volume > b.box_volume,
-    "smaller_than": lambda v, a, b: a.volume < b.volume and a.box_volume < b.box_volume,
+    "bigger_than": lambda v, a, b: a.volume > b.volume and a.box_volume > b.box_volume
+    and v.looks_size(a) > v.looks_size(b),
+    "smaller_than": lambda v, a, b: a.volume < b.volume and a.box_volume < b.box_volume
+    and v.looks_size(a) < v.looks_size(b),
     "taller_than": lambda v, a, b: _height(a) >= _height(b) + TOLERANCE_M,
     "shorter_than": lambda v, a, b: _height(b) >= _height(a) + TOLERANCE_M,
     "wider_than": lambda v, a, b: np.ptp(a.span(v.right)) >= np.ptp(b.span(v.right)) + TOLERANCE_M,

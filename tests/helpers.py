@@ -48,5 +48,6 @@ def view(*objects: ObjectFacts, contacts=(), T_world_cam: np.ndarray = T) -> Vie
         if o.centroid_px is not None:
             c, r = int(o.centroid_px[0]), int(o.centroid_px[1])
             seg[max(r - 3, 0): r + 4, max(c - 3, 0): c + 4] = o.object_id
-    return ViewFacts(tuple(objects), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), seg,
+    right, forward = (np.r_[T_world_cam[:2, k], 0.0] / np.linalg.norm(T_world_cam[:2, k]) for k in (0, 2))
+    return ViewFacts(tuple(objects), right, forward, seg,
                      np.ones(SHAPE, dtype=np.float32), K, T_world_cam, (1.2, 0.8), 0.0, contacts=frozenset(contacts))

@@ -223,6 +223,20 @@ def test_on_in_and_across_boards_are_not_near_between_or_beside():
     assert PREDICATES["on_back_side"](view(duck, level), level, duck) is True
 
 
+def test_left_and_right_across_boards_need_a_clear_gap():
+    """A mug on the bottom board 1.6 cm right of a box on the board above reads "below" it, not
+    "right of" it (annotator); on one board the same gap is plain "right of"."""
+    box = _facts({"id": 0, "category": "box", "at": [-0.05, 0.2, 0.38], "size": [0.18, 0.12, 0.1], "support": -2})
+
+    def mug(x: float, board: int):
+        return _facts({"id": 1, "category": "mug", "at": [x, 0.2, 0.38 if board == -2 else 0.0],
+                       "size": [0.1, 0.08, 0.1], "support": board})
+
+    assert PREDICATES["right_of"](view(box, m := mug(0.106, TABLE)), m, box) is None  # gap 1.6 cm
+    assert PREDICATES["right_of"](view(box, m := mug(0.15, TABLE)), m, box) is True  # gap 6 cm
+    assert PREDICATES["right_of"](view(box, m := mug(0.106, -2)), m, box) is True  # one board
+
+
 def test_no_corner_or_edge_of_the_table_on_a_shelf():
     jar = _facts({"id": 0, "category": "jar", "at": [0.55, 0.35, 0.0], "size": [0.08, 0.08, 0.12]})
     assert PREDICATES["at_corner"](view(jar), jar) is True

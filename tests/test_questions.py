@@ -228,6 +228,26 @@ def test_camera_move_between_two_views():
         execute([{"op": "camera_move", "motion": "turn"}], views)  # no turn at all
 
 
+def test_a_turn_is_asked_only_when_the_camera_did_not_circle():
+    """Circling the table, the camera moves left while it turns right: no turn a person can name."""
+    from refspatial.camera import look_rotation
+
+    def camera(yaw_deg: float, x: float):
+        pose = T.copy()
+        pose[:3, :3] = look_rotation(np.radians(yaw_deg), -np.radians(30)) @ np.diag([1.0, -1.0, -1.0])
+        pose[:3, 3] += [x, 0.0, 0.0]
+        return view(*MUGS.objects, T_world_cam=pose)
+
+    def turn(second):
+        return execute([{"op": "camera_move", "motion": "turn"}], {"other": MUGS, "self": second})[-1]
+
+    assert turn(camera(60, 0.0)) == "right"  # heading 90 -> 60 degrees, standing still: a pan
+    assert turn(camera(60, 0.3)) == "right"  # and slid right too: the picture moves one way
+    with pytest.raises(ProgramError, match="circled"):
+        turn(camera(60, -0.3))  # slid left while turning right: round the table
+    assert execute([{"op": "camera_move", "motion": "shift"}], {"other": MUGS, "self": camera(60, -0.3)})[-1] == "left"
+
+
 def test_phrasebook_has_three_phrasings_per_template_and_the_exact_suffix():
     data = Phrasebook.get().data
     for family in ("location", "placement", "identify_name", "identify_point", "yes_no", "yes_no_unary", "pick",
@@ -329,3 +349,21 @@ def test_mask_points_come_from_the_whole_frames_erosion():
         for x, y in points:
             assert mask[int(y * h), int(x * w)]
             assert eroded[round(y * h - 0.5), round(x * w - 0.5)]  # a pixel centre, to 3 decimals
+
+
+def test_no_yes_no_question_asks_whether_a_big_thing_is_inside_a_small_container():
+    """"Is the stool inside the jar?" is trivially no: only things smaller than the container are asked."""
+    from refspatial.questions.choice import _yes_no
+    from refspatial.scene import Cavity
+
+    jar = obj(0, "jar", "green", 0.2, 0.1, size=0.08, height=0.12, cavity=Cavity("cylinder", (0.035, 0.035), 0.01, 0.12))
+    stool = obj(1, "stool", "black", -0.25, 0.1, size=0.35, height=0.45)
+    lemon = obj(2, "lemon", "yellow", -0.2, 0.45, size=0.05, height=0.05)
+    v = view(jar, stool, lemon)
+    asked = []
+    for seed in range(40):
+        qa = _yes_no({"self": v}, ["inside"], np.random.default_rng(seed))
+        if qa is not None:
+            node = qa["steps"][-1]
+            asked.append(tuple(qa["steps"][k]["result"] for k in node["inputs"]))
+    assert asked and all(subject != 1 for subject, _ in asked), asked

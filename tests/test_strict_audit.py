@@ -26,7 +26,9 @@ def _sample(objects: list[dict], qa_steps: list[dict]) -> dict:
         depth[5:15, 5 + 15 * k: 15 + 15 * k] = o["box_world"]["center_m"][1] + 1.0
     qa = {"qa_id": "t#0", "prompt": "p", "steps": qa_steps, "family": "spatial", "kind": "point"}
     rgb = np.zeros((40, 60, 3), np.uint8)
-    return {"scene": {"objects": objects}, "T_world_cam": T, "depth_m": depth, "seg": seg, "rgb": rgb, "qa": [qa]}
+    K = np.array([[50.0, 0.0, 30.0], [0.0, 50.0, 20.0], [0.0, 0.0, 1.0]])
+    return {"scene": {"objects": objects}, "T_world_cam": T, "K": K, "depth_m": depth, "seg": seg, "rgb": rgb,
+            "qa": [qa]}
 
 
 def _relate(predicate: str, kept: list[int], anchor: int) -> list[dict]:
@@ -60,6 +62,14 @@ def test_bigger_needs_both_volumes():
     """A plate (wide box, little material) against an apple: the two readings disagree."""
     plate, apple = _obj(0, -0.2, 0.0, 0.22, 0.02, volume=1.5e-4), _obj(1, 0.2, 0.0, 0.07, 0.07, volume=1.8e-4)
     assert _violations(_sample([plate, apple], _relate("bigger_than", [1], 0))) == [("bigger_than", 1, 0)]
+
+
+def test_bigger_needs_to_look_bigger_too():
+    """A bigger cake far back looks smaller than a small cake near the camera: disputed."""
+    back, front = _obj(0, 0.1, 0.8, 0.18, 0.08), _obj(1, -0.1, -0.5, 0.15, 0.08)
+    assert _violations(_sample([back, front], _relate("bigger_than", [0], 1))) == [("bigger_than", 0, 1)]
+    near = _obj(1, -0.1, 0.8, 0.15, 0.08)  # the same cakes side by side: no dispute
+    assert _violations(_sample([back, near], _relate("bigger_than", [0], 1))) == []
 
 
 def test_a_no_must_hold_strictly_too():

@@ -36,7 +36,8 @@ def _yes_no(views, predicates: list[str], rng) -> QA | None:
         # All groups with the wanted answer (verdicts are cached), so rare relations still get asked.
         groups = [g for g in permutations(view.askable(), pred.arity) if pred(view, *g) is want
                   and (name not in SIDE_PREDICATES or side_visible(view, g[1]))
-                  and (name != "outside" or holds_anything(view, g[1]))]  # "not inside the empty pot?" is idle
+                  and (name != "outside" or holds_anything(view, g[1]))  # "not inside the empty pot?" is idle
+                  and (name != "inside" or g[0].box_volume_m3 < g[1].box_volume_m3)]  # "the stool in the jar?"
         if groups:
             break
     else:

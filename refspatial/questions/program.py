@@ -199,21 +199,30 @@ def _mark(view: ViewFacts, node: Node, target: int) -> str:
     return labels[0]
 
 
+CAMERA_SHIFT_MARGIN_M = 0.10
+CAMERA_TURN_MARGIN_DEG = 10.0
+
+
 @op("camera_move", reads_all_views=True)
 def _camera_move(view: ViewFacts, node: Node) -> str:
     """Which way the camera went from the other view to this one: "left"/"right" along the other
-    camera's ground-projected right axis (margin 10 cm), or the turn "left"/"right" (margin 10 deg)."""
+    camera's ground-projected right axis (margin 10 cm), or the turn "left"/"right" (margin 10 deg).
+    A turn is asked only when the camera did not also move the other way: circling a table, it
+    moves left while its heading turns right, and a person comparing the pictures sees the scene
+    swing round, not a turn either way (annotator)."""
     first, second = node["_views"]["other"], node["_views"]["self"]
+    moved = float((second.T_world_cam[:3, 3] - first.T_world_cam[:3, 3]) @ first.right_axis)
+    f1, f2 = first.forward_axis, second.forward_axis
+    turned = -float(np.degrees(np.arctan2(f1[0] * f2[1] - f1[1] * f2[0], f1 @ f2)))
     if node["motion"] == "shift":
-        shift = float((second.T_world_cam[:3, 3] - first.T_world_cam[:3, 3]) @ first.right_axis)
-        margin = 0.10
+        value, margin = moved, CAMERA_SHIFT_MARGIN_M
     else:
-        f1, f2 = first.forward_axis, second.forward_axis
-        shift = float(np.degrees(np.arctan2(f1[0] * f2[1] - f1[1] * f2[0], f1 @ f2))) * -1.0
-        margin = 10.0
-    if abs(shift) <= margin:
+        value, margin = turned, CAMERA_TURN_MARGIN_DEG
+        if abs(moved) > CAMERA_SHIFT_MARGIN_M and (moved > 0) != (turned > 0):
+            raise ProgramError("the camera circled: it moved one way and turned the other")
+    if abs(value) <= margin:
         raise ProgramError("the camera barely moved that way")
-    return "right" if shift > 0 else "left"
+    return "right" if value > 0 else "left"
 
 
 def execute(program: list[Node], views: ViewFacts | Views, skip: int | None = None) -> list[Value]:

@@ -17,6 +17,9 @@ from .registry import Verdict, compare, predicate
 from .vertical import containment
 
 CLEAR_GAP_M = 0.01  # extents along an axis must be at least this far apart: boxes are bounds, not shapes
+# Across shelf boards the gap must be wider: a mug on the bottom board 2 cm right of a box on the
+# board above is "below" it to the eye, not "right of" it (annotator).
+CLEAR_GAP_ACROSS_LEVELS_M = 0.05
 DEPTH_MARGIN_M = 0.03
 DEPTH_MARGIN_REL = 0.05  # share of the nearer object's depth
 BETWEEN_MIN_GAP_M = 0.10  # anchors closer than this enclose no corridor worth naming
@@ -39,14 +42,16 @@ BETWEEN_LOOSE_SHARE = 0.4
 
 
 def clear_order(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, axis: np.ndarray, ca: float, cb: float) -> Verdict:
-    """True when A's whole extent along ``axis`` lies below B's (by CLEAR_GAP_M), False when it
-    lies above; undecided when the extents overlap or one rests on or in the other."""
+    """True when A's whole extent along ``axis`` lies below B's (by CLEAR_GAP_M, or
+    CLEAR_GAP_ACROSS_LEVELS_M for things on different shelf boards), False when it lies above;
+    undecided when the extents overlap or one rests on or in the other."""
     if v.stacked(a, b):
         return None
+    gap = CLEAR_GAP_ACROSS_LEVELS_M if v.on_other_levels(a, b) else CLEAR_GAP_M
     (a_lo, a_hi), (b_lo, b_hi) = a.interval_along(axis, ca), b.interval_along(axis, cb)
-    if b_lo - a_hi >= CLEAR_GAP_M:
+    if b_lo - a_hi >= gap:
         return True
-    if a_lo - b_hi >= CLEAR_GAP_M:
+    if a_lo - b_hi >= gap:
         return False
     return None
 
@@ -59,8 +64,8 @@ def nearer(a_m: float, b_m: float) -> Verdict:
 @predicate("left_of", family="left_right", arity=2, frame="viewer", inverse="right_of")
 def left_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """The whole of A lies left of the whole of B along the viewer's right axis (ground-projected
-    camera x): their extents on that axis are at least 1 cm apart, and neither rests on or in
-    the other. False when the whole of A lies right of B; undecided otherwise."""
+    camera x): their extents on that axis are at least 1 cm apart (5 cm across shelf boards), and
+    neither rests on or in the other. False when the whole of A lies right of B; undecided otherwise."""
     return clear_order(v, a, b, v.right_axis, a.lateral_m, b.lateral_m)
 
 

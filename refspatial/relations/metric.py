@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from .facts import ObjectFacts, ViewFacts
-from .geometry import widths
+from .geometry import project, widths
 from .registry import Quantity, Verdict, compare, predicate
 from .vertical import containment
 
@@ -13,6 +14,10 @@ from .vertical import containment
 # difference worth a word; closer than that is a near-tie, never asked.
 HEIGHT_MARGIN = (0.02, 0.20)  # (absolute m, share of the taller)
 VOLUME_MARGIN = 0.20  # share of the larger volume, for both readings of "bigger"
+# ...and the eye's reading: how big each looks in the picture, by the area its outline prism
+# covers there, must agree beyond this share of the larger (a cake in front looks larger than
+# the one at the back that is bigger: annotator).
+APPARENT_MARGIN = 0.10
 WIDTH_MARGIN = (0.02, 0.20)  # (absolute m, share of the wider)
 NEAR_GAP = (0.05, 0.5)  # near: footprint gap <= max(5 cm, 0.5 x mean footprint size)
 FAR_GAP = (0.25, 2.0)  # far: footprint gap >= max(25 cm, 2 x mean footprint size)
@@ -37,13 +42,30 @@ def shorter_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 @predicate("bigger_than", family="big_small", arity=2, frame="world", inverse="smaller_than")
 def bigger_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A is bigger than B by both readings of "big": the volume its mesh encloses (a bowl's
+    """A is bigger than B by every reading of "big": the volume its mesh encloses (a bowl's
     material) and the volume of its box (a bowl with its hollow, as the eye takes it), each
-    larger by 20 % of the larger. A plate against an apple, bigger by one reading and smaller
-    by the other, is undecided and never asked."""
+    larger by 20 % of the larger, and it looks bigger in the picture (the area its outline
+    prism covers there, larger by 10 % of the larger). A plate against an apple, bigger by one
+    reading and smaller by another, is undecided and never asked; so is a big cake at the back
+    that looks smaller than a small one in front."""
     enclosed = compare(a.volume_m3 - b.volume_m3, VOLUME_MARGIN * max(a.volume_m3, b.volume_m3))
     box = compare(a.box_volume_m3 - b.box_volume_m3, VOLUME_MARGIN * max(a.box_volume_m3, b.box_volume_m3))
-    return enclosed if enclosed == box else None
+    sa, sb = apparent_area_px(v, a), apparent_area_px(v, b)
+    looks = compare(sa - sb, APPARENT_MARGIN * max(sa, sb))
+    return enclosed if enclosed == box == looks else None
+
+
+def apparent_area_px(v: ViewFacts, o: ObjectFacts) -> float:
+    """Pixels the object's outline prism (its ground outline from its bottom to its top) covers
+    in the picture, occlusion aside: how big it looks from here (memoised per view)."""
+    key = ("apparent_px", o.object_id)
+    if key not in v.cache:
+        ring = o.ground_outline
+        (_, _, z0), (_, _, z1) = o.aabb_world_m
+        prism = np.concatenate([np.c_[ring, np.full(len(ring), z0)], np.c_[ring, np.full(len(ring), z1)]])
+        uv, z = project(prism, v.K, v.T_world_cam)
+        v.cache[key] = float(cv2.contourArea(cv2.convexHull(uv.astype(np.float32)))) if np.all(z > 0.01) else 0.0
+    return v.cache[key]
 
 
 @predicate("smaller_than", family="big_small", arity=2, frame="world", inverse="bigger_than")
