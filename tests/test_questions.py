@@ -367,3 +367,17 @@ def test_no_yes_no_question_asks_whether_a_big_thing_is_inside_a_small_container
             node = qa["steps"][-1]
             asked.append(tuple(qa["steps"][k]["result"] for k in node["inputs"]))
     assert asked and all(subject != 1 for subject, _ in asked), asked
+
+
+def test_a_relation_true_of_nearly_everything_must_rule_out_more_than_its_anchor():
+    """With two cutting boards, "the cutting board not touching the yellow cutting board" only says
+    "the other one"; "left of the yellow cutting board" says where it is (annotators)."""
+    v = view(obj(0, "cutting_board", "red", -0.25, 0.1, size=0.2, height=0.02),
+             obj(1, "cutting_board", "yellow", 0.25, 0.1, size=0.2, height=0.02),
+             obj(2, "mug", "blue", 0.0, 0.45))
+    predicates = set()
+    for seed in range(10):
+        v.cache.clear()
+        for ref in anchored_refs(v, v.objects[0], 2, np.random.default_rng(seed), Phrasebook.get().phrased, wanted=8):
+            predicates |= {r.predicate for r in ref.relations if r.anchors[0].object_id == 1}
+    assert "left_of" in predicates and not predicates & {"separated", "far"}, predicates

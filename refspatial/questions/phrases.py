@@ -34,6 +34,11 @@ class Phrasebook:
         return set(rel) | {f"{n}:reverse" for n, e in rel.items() if "reverse" in e}
 
     @property
+    def rule_out_others(self) -> frozenset[str]:
+        """Predicates a description may use only where they rule out more than their own anchors."""
+        return frozenset(self.data["rule_out_others"])
+
+    @property
     def anchor_pairs(self) -> set[frozenset[str]]:
         """Predicates that may share one anchor in a description ("left of and behind the plate")."""
         return {frozenset(p) for p in self.data["anchor_pairs"]}

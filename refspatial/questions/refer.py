@@ -276,12 +276,16 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, head: int, kind: str, ph
         if kind == "pair":
             parts = _pairs(head, _scored_parts(view, target, head, "binary", phrased, rng))
         elif head:
+            from .phrases import Phrasebook  # phrases imports this module
+
+            weak = Phrasebook.get().rule_out_others
             ids = [i for i in range(head.bit_length()) if head >> i & 1]
             for rel in _parts(view, target, kind, phrased, rng):
                 kept, undecided = _kept(view, rel, ids)
-                if kept >> target.object_id & 1:
-                    named = _named_objects((rel,))
-                    parts.append(_Part((rel,), named, 1 << _PREDICATE_INDEX[rel.predicate], kept, undecided))
+                named = _named_objects((rel,))
+                if not kept >> target.object_id & 1 or (rel.predicate in weak and not head & ~named & ~kept):
+                    continue  # misses the target, or a weak relation that only leaves out its anchor
+                parts.append(_Part((rel,), named, 1 << _PREDICATE_INDEX[rel.predicate], kept, undecided))
         view.cache[key] = parts
     return view.cache[key]
 
