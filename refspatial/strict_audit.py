@@ -9,7 +9,8 @@ the camera -- and checks every relation a question relied on:
   right or forward axis laid on the ground; from the stored ground outline of the mesh, or the
   oriented box where a record has none) do not overlap, and neither object rests on the other;
 - closer to the camera: nearer both by the visible surface (median depth over its mask) and by
-  the box centre's depth;
+  the box centre's depth, and not spanning the other (or spanned by it) along the viewer's forward
+  axis on the ground;
 - bigger/smaller: larger by enclosed volume, by box volume and by the area it covers in the
   picture (its outline raised to its height, projected);
 - taller/shorter, wider/thinner: by at least 1 cm;
@@ -200,6 +201,11 @@ def _between(v: View, a: Box, b: Box, c: Box) -> bool:
     return pa is not None and pb is not None and pc is not None and _on_segment(pa, pb, pc, 0.05)
 
 
+def _spans(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """One interval holds the other: neither is nearer at both ends."""
+    return (a[0] < b[0]) != (a[1] < b[1])
+
+
 def _height(a: Box) -> float:
     lo, hi = a.span(Z)
     return hi - lo
@@ -210,7 +216,8 @@ STRICT = {
     "right_of": lambda v, a, b: _before(v, b, a, v.right),
     "in_front_of": lambda v, a, b: _before(v, a, b, v.forward),
     "behind": lambda v, a, b: _before(v, b, a, v.forward),
-    "closer_to_camera": lambda v, a, b: v.surface_depth(a) < v.surface_depth(b) and v.centre_depth(a) < v.centre_depth(b),
+    "closer_to_camera": lambda v, a, b: v.surface_depth(a) < v.surface_depth(b) and v.centre_depth(a) < v.centre_depth(b)
+    and not _spans(a.span(v.forward), b.span(v.forward)),
     "bigger_than": lambda v, a, b: a.volume > b.volume and a.box_volume > b.box_volume
     and v.looks_size(a) > v.looks_size(b),
     "smaller_than": lambda v, a, b: a.volume < b.volume and a.box_volume < b.box_volume

@@ -72,6 +72,15 @@ def test_bigger_needs_to_look_bigger_too():
     assert _violations(_sample([back, near], _relate("bigger_than", [0], 1))) == []
 
 
+def test_closer_must_not_span_the_other_in_depth():
+    """A big chair whose footprint runs from before a small pot to beyond it is not nearer than it,
+    though its centre is: disputed (annotator)."""
+    chair, pot = _obj(0, -0.3, 0.3, 0.6, 0.9), _obj(1, 0.3, 0.4, 0.1, 0.2)
+    assert _violations(_sample([chair, pot], _relate("closer_to_camera", [0], 1))) == [("closer_to_camera", 0, 1)]
+    ahead = _obj(0, -0.3, 0.0, 0.3, 0.9)  # wholly in front of the pot
+    assert _violations(_sample([ahead, pot], _relate("closer_to_camera", [0], 1))) == []
+
+
 def test_a_no_must_hold_strictly_too():
     """"Is A left of B? No" with overlapping boxes is disputed: A is not clearly right of B either."""
     objs = [_obj(0, 0.0, 0.0, 0.1, 0.1), _obj(1, 0.05, 0.2, 0.1, 0.1)]

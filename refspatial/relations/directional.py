@@ -100,10 +100,17 @@ def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     towards the camera, whose visible surface is near but whose centre is far, is undecided
     against a hammer between.
     Undecided for things on different shelf boards: a camera above the shelf puts the higher
-    board nearer in a straight line, while a person compares how far forward they stand.
+    board nearer in a straight line, while a person compares how far forward they stand. And
+    undecided when one spans the other along the viewing direction on the ground (its near end
+    nearer, its far end farther): a chair whose front legs stand level with a plant pot is not
+    nearer than the pot, whatever its seat's centre says (annotator).
     Its converse, "farther from the camera than", is this predicate with the objects swapped.
     """
     if not (np.isfinite(a.depth_m) and np.isfinite(b.depth_m)) or v.on_other_levels(a, b):
+        return None
+    (a_lo, a_hi) = a.interval_along(v.forward_axis, a.forward_m)
+    (b_lo, b_hi) = b.interval_along(v.forward_axis, b.forward_m)
+    if (a_lo < b_lo) != (a_hi < b_hi):
         return None
     surface = nearer(a.depth_m, b.depth_m)
     ca, cb = v.centre_in_camera(a), v.centre_in_camera(b)
