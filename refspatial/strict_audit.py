@@ -12,7 +12,9 @@ the camera -- and checks every relation a question relied on:
   the box centre's depth, and not spanning the other (or spanned by it) along the viewer's forward
   axis on the ground;
 - bigger/smaller: larger by enclosed volume, by box volume and by the area it covers in the
-  picture (its outline raised to its height, projected);
+  picture (its outline raised to its height, projected), its longest dimension not under 90 %
+  of the other's;
+- in front/behind also: the centres further apart front to back than side to side;
 - taller/shorter, wider/thinner: by at least 1 cm;
 - above/below: directly over or under (the smaller's centre within the larger's ground outline,
   one's bottom not below the other's top less 2 cm);
@@ -201,6 +203,19 @@ def _between(v: View, a: Box, b: Box, c: Box) -> bool:
     return pa is not None and pb is not None and pc is not None and _on_segment(pa, pb, pc, 0.05)
 
 
+def _more_along(v: View, a: Box, b: Box, axis: np.ndarray, across: np.ndarray) -> bool:
+    """The centres lie further apart along ``axis`` than across it (not side by side)."""
+    d = a.centre - b.centre
+    return abs(float(d @ axis)) >= abs(float(d @ across)) - 1e-6
+
+
+def _longest(a: Box) -> float:
+    """Longest dimension: the largest distance between two corners of its ground outline, or its height."""
+    ring = a.outline if a.outline is not None else a.corners[:, :2]
+    span = float(np.max(np.linalg.norm(ring[:, None] - ring[None], axis=2)))
+    return max(span, _height(a))
+
+
 def _spans(a: tuple[float, float], b: tuple[float, float]) -> bool:
     """One interval holds the other: neither is nearer at both ends."""
     return (a[0] < b[0]) != (a[1] < b[1])
@@ -214,14 +229,14 @@ def _height(a: Box) -> float:
 STRICT = {
     "left_of": lambda v, a, b: _before(v, a, b, v.right),
     "right_of": lambda v, a, b: _before(v, b, a, v.right),
-    "in_front_of": lambda v, a, b: _before(v, a, b, v.forward),
-    "behind": lambda v, a, b: _before(v, b, a, v.forward),
+    "in_front_of": lambda v, a, b: _before(v, a, b, v.forward) and _more_along(v, a, b, v.forward, v.right),
+    "behind": lambda v, a, b: _before(v, b, a, v.forward) and _more_along(v, a, b, v.forward, v.right),
     "closer_to_camera": lambda v, a, b: v.surface_depth(a) < v.surface_depth(b) and v.centre_depth(a) < v.centre_depth(b)
     and not _spans(a.span(v.forward), b.span(v.forward)),
     "bigger_than": lambda v, a, b: a.volume > b.volume and a.box_volume > b.box_volume
-    and v.looks_size(a) > v.looks_size(b),
+    and v.looks_size(a) > v.looks_size(b) and _longest(a) >= 0.9 * _longest(b) - 1e-6,
     "smaller_than": lambda v, a, b: a.volume < b.volume and a.box_volume < b.box_volume
-    and v.looks_size(a) < v.looks_size(b),
+    and v.looks_size(a) < v.looks_size(b) and _longest(b) >= 0.9 * _longest(a) - 1e-6,
     "taller_than": lambda v, a, b: _height(a) >= _height(b) + TOLERANCE_M,
     "shorter_than": lambda v, a, b: _height(b) >= _height(a) + TOLERANCE_M,
     "wider_than": lambda v, a, b: np.ptp(a.span(v.right)) >= np.ptp(b.span(v.right)) + TOLERANCE_M,

@@ -156,7 +156,7 @@ def test_chained_anchors_count_their_own_steps_and_name_each_object_once(steps):
 def test_two_phrases_on_one_anchor_find_it_once_and_count_three_steps():
     """Two cups left of the plate and two behind it: only "left of and behind the plate" picks the
     back-left one. The plate is one node of the program and named once in the words."""
-    v = view(obj(0, "cup", "red", -0.25, 0.3), obj(1, "cup", "red", -0.25, -0.1), obj(2, "cup", "red", 0.25, 0.3),
+    v = view(obj(0, "cup", "red", -0.25, 0.45), obj(1, "cup", "red", -0.25, -0.25), obj(2, "cup", "red", 0.25, 0.45),
              obj(3, "plate", "white", 0.0, 0.1, size=0.12))
     pairs = []
     for seed in range(12):

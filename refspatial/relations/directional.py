@@ -79,9 +79,11 @@ def right_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 def in_front_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """The whole of A lies nearer the viewer than the whole of B along the ground-projected
     forward axis (extents at least 1 cm apart, neither resting on or in the other). False when
-    the whole of A lies beyond B; undecided otherwise, and across shelf boards (a jar on the top
-    board is above the one on the bottom board, not in front of it: annotator)."""
-    if v.on_other_levels(a, b):
+    the whole of A lies beyond B; undecided otherwise, across shelf boards (a jar on the top
+    board is above the one on the bottom board, not in front of it: annotator), and when the two
+    stand further apart side to side than front to back (two clocks 70 cm apart across and 12 cm
+    in depth stand side by side: annotator)."""
+    if v.on_other_levels(a, b) or abs(a.lateral_m - b.lateral_m) > abs(a.forward_m - b.forward_m):
         return None
     return clear_order(v, a, b, v.forward_axis, a.forward_m, b.forward_m)
 

@@ -18,6 +18,9 @@ VOLUME_MARGIN = 0.20  # share of the larger volume, for both readings of "bigger
 # covers there, must agree beyond this share of the larger (a cake in front looks larger than
 # the one at the back that is bigger: annotator).
 APPARENT_MARGIN = 0.10
+# ...and its longest dimension (longest ground span or height) may not be clearly shorter: a phone
+# 16 cm long does not look smaller than a 9 cm jar, whatever the volumes say (annotator).
+LONGEST_MARGIN = 0.10
 WIDTH_MARGIN = (0.02, 0.20)  # (absolute m, share of the wider)
 NEAR_GAP = (0.05, 0.5)  # near: footprint gap <= max(5 cm, 0.5 x mean footprint size)
 FAR_GAP = (0.25, 2.0)  # far: footprint gap >= max(25 cm, 2 x mean footprint size)
@@ -47,12 +50,22 @@ def bigger_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     larger by 20 % of the larger, and it looks bigger in the picture (the area its outline
     prism covers there, larger by 10 % of the larger). A plate against an apple, bigger by one
     reading and smaller by another, is undecided and never asked; so is a big cake at the back
-    that looks smaller than a small one in front."""
+    that looks smaller than a small one in front, and a jar against a phone whose length is
+    clearly longer than anything of the jar's (its longest dimension, 10 % margin, may not
+    contradict)."""
     enclosed = compare(a.volume_m3 - b.volume_m3, VOLUME_MARGIN * max(a.volume_m3, b.volume_m3))
     box = compare(a.box_volume_m3 - b.box_volume_m3, VOLUME_MARGIN * max(a.box_volume_m3, b.box_volume_m3))
     sa, sb = apparent_area_px(v, a), apparent_area_px(v, b)
     looks = compare(sa - sb, APPARENT_MARGIN * max(sa, sb))
-    return enclosed if enclosed == box == looks else None
+    la, lb = _longest(v, a), _longest(v, b)
+    if enclosed is None or not enclosed == box == looks or compare(la - lb, LONGEST_MARGIN * max(la, lb)) is (not enclosed):
+        return None
+    return enclosed
+
+
+def _longest(v: ViewFacts, o: ObjectFacts) -> float:
+    """The object's longest dimension: its longest ground span or its height."""
+    return max(_plan_widths(v, o)[1], o.height_m)
 
 
 def apparent_area_px(v: ViewFacts, o: ObjectFacts) -> float:
