@@ -57,10 +57,11 @@ def bigger_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     box = compare(a.box_volume_m3 - b.box_volume_m3, VOLUME_MARGIN * max(a.box_volume_m3, b.box_volume_m3))
     sa, sb = apparent_area_px(v, a), apparent_area_px(v, b)
     looks = compare(sa - sb, APPARENT_MARGIN * max(sa, sb))
-    la, lb = _longest(v, a), _longest(v, b)
-    if enclosed is None or not enclosed == box == looks or compare(la - lb, LONGEST_MARGIN * max(la, lb)) is (not enclosed):
+    if enclosed is None or not enclosed == box == looks:
         return None
-    return enclosed
+    la, lb = _longest(v, a), _longest(v, b)
+    longest = compare(la - lb, LONGEST_MARGIN * max(la, lb))
+    return None if longest is (not enclosed) else enclosed  # the longest may be a tie, not the opposite
 
 
 def _longest(v: ViewFacts, o: ObjectFacts) -> float:
