@@ -17,7 +17,7 @@ from .refer import compile_ref, simple_refs
 QA = dict[str, Any]
 POINT_TRIES = 20
 ORIENTATION_PREDICATES = ("on_facing_side", "on_back_side")
-TARGET_WEIGHTS_KEY = ("target_weights",)  # where a view's cache keeps pick_target's weights
+TARGET_WEIGHTS_KEY = ("target_weights",)  # where a view's cache keeps target_order's weights
 SIZE_MEASURES = {"taller_than": "height", "shorter_than": "height", "wider_than": "width",
                  "thinner_than": "width", "bigger_than": "size", "smaller_than": "size"}
 
@@ -37,19 +37,11 @@ def _probabilities(items: tuple) -> tuple[tuple, np.ndarray]:
     return tuple(k for k, _ in items), p
 
 
-def pick_target(view: ViewFacts, rng: np.random.Generator):
-    """An askable object, favouring those away from the image centre.
-
-    The camera aims at the middle of the scene, so uniform targets would pile
-    answer points up in the central image cells.
-    """
-    return view.askable()[int(rng.choice(len(view.askable()), p=_target_weights(view)))]
-
-
 def target_order(view: ViewFacts, rng: np.random.Generator) -> list:
-    """Every askable object once, in a random order weighted as ``pick_target`` draws: a
-    description that fits only one object of six (a between, a five-step chain) is found
-    by going down the list, where repeated draws keep landing on the same favoured few."""
+    """Every askable object once, in a random order that favours those away from the image centre
+    (the camera aims at the middle of the scene: uniform targets would pile answer points up in
+    the central cells). Going down the list finds a description that fits only one object of six
+    (a between, a five-step chain), where repeated weighted draws kept landing on the same few."""
     objs = view.askable()
     keys = rng.random(len(objs)) ** (1.0 / _target_weights(view))  # weighted sampling without replacement
     return [objs[int(k)] for k in np.argsort(-keys, kind="stable")]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -33,12 +33,12 @@ class Phrasebook:
         rel = self.data["relations"]
         return set(rel) | {f"{n}:reverse" for n, e in rel.items() if "reverse" in e}
 
-    @property
+    @cached_property  # read per description search
     def rule_out_others(self) -> frozenset[str]:
         """Predicates a description may use only where they rule out more than their own anchors."""
         return frozenset(self.data["rule_out_others"])
 
-    @property
+    @cached_property  # read per description search
     def anchor_pairs(self) -> set[frozenset[str]]:
         """Predicates that may share one anchor in a description ("left of and behind the plate")."""
         return {frozenset(p) for p in self.data["anchor_pairs"]}

@@ -276,9 +276,7 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, head: int, kind: str, ph
         if kind == "pair":
             parts = _pairs(head, _scored_parts(view, target, head, "binary", phrased, rng))
         elif head:
-            from .phrases import Phrasebook  # phrases imports this module
-
-            weak = Phrasebook.get().rule_out_others
+            weak = _phrasebook().rule_out_others
             ids = [i for i in range(head.bit_length()) if head >> i & 1]
             for rel in _parts(view, target, kind, phrased, rng):
                 kept, undecided = _kept(view, rel, ids)
@@ -295,9 +293,7 @@ def _pairs(head: int, binary: list[_Part]) -> list[_Part]:
     together ("to the left of and behind the plate"), each ruling out a candidate the other keeps.
     Run in order, the second relation meets only what the first kept: its undecided ones count
     only there."""
-    from .phrases import Phrasebook  # phrases imports this module
-
-    allowed = Phrasebook.get().anchor_pairs
+    allowed = _phrasebook().anchor_pairs
     out = []
     for i, a in enumerate(binary):
         for b in binary[i + 1:]:
@@ -312,6 +308,13 @@ def _pairs(head: int, binary: list[_Part]) -> list[_Part]:
 
 
 _PREDICATE_INDEX = {name: k for k, name in enumerate(sorted(PREDICATES))}
+
+
+def _phrasebook():
+    """The template file's phrasebook (imported late: phrases imports this module)."""
+    from .phrases import Phrasebook
+
+    return Phrasebook.get()
 
 
 def _fitting_combinations(target: int, head: int, shapes, rng,
