@@ -20,6 +20,10 @@ CLEAR_GAP_M = 0.01  # extents along an axis must be at least this far apart: box
 # Across shelf boards the gap must be wider: a mug on the bottom board 2 cm right of a box on the
 # board above is "below" it to the eye, not "right of" it (annotator).
 CLEAR_GAP_ACROSS_LEVELS_M = 0.05
+# "In front of" needs the two further apart front to back than side to side by a clear share: at
+# 45 degrees a frying pan is as much left of the other as in front of it, and its box centre and
+# its mesh centre (the handle) disagree on which is more (strict audit, 2 mm the other way).
+FRONT_OVER_SIDE = 1.15
 DEPTH_MARGIN_M = 0.03
 DEPTH_MARGIN_REL = 0.05  # share of the nearer object's depth
 BETWEEN_MIN_GAP_M = 0.10  # anchors closer than this enclose no corridor worth naming
@@ -81,9 +85,10 @@ def in_front_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     forward axis (extents at least 1 cm apart, neither resting on or in the other). False when
     the whole of A lies beyond B; undecided otherwise, across shelf boards (a jar on the top
     board is above the one on the bottom board, not in front of it: annotator), and when the two
-    stand further apart side to side than front to back (two clocks 70 cm apart across and 12 cm
-    in depth stand side by side: annotator)."""
-    if v.on_other_levels(a, b) or abs(a.lateral_m - b.lateral_m) > abs(a.forward_m - b.forward_m):
+    stand side to side more than 1/1.15 as far apart as front to back (two clocks 70 cm apart across
+    and 12 cm in depth stand side by side: annotator; two pans 33 cm apart both ways stand diagonally)."""
+    if v.on_other_levels(a, b) or \
+            FRONT_OVER_SIDE * abs(a.lateral_m - b.lateral_m) > abs(a.forward_m - b.forward_m):
         return None
     return clear_order(v, a, b, v.forward_axis, a.forward_m, b.forward_m)
 
