@@ -20,7 +20,7 @@ def choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.G
     r = rng.random()
     if r < 0.45:
         return _yes_no(views, sorted(relation_predicates(book.phrased, 2)), rng)
-    if r < 0.55:
+    if r < 0.62:  # one-object relations (at the edge, in a corner) have few other ways to be asked
         return _yes_no(views, sorted(relation_predicates(book.phrased, 1)), rng)
     return _pick(views, sorted(book.data["comparatives"]), rng)
 
