@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
-import trimesh
 import yaml
 
 from .mesh_import import (
@@ -33,6 +32,7 @@ from .looks import dress, load_looks
 from .paths import assets_dir
 from .scene import Asset, Cavity, MeshData
 from .shapes import BUILDER_LIMITS, BUILDER_PARAMS, BUILDERS
+from .shapes.geometry import FinalMesh
 
 _UNIT_TOL = 1e-3
 _YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml parses the catalogue 10x faster
@@ -405,6 +405,6 @@ def _geometry(spec: CategorySpec, params: dict[str, float]) -> tuple[MeshData, t
     return _mesh_data(visual), tuple(_mesh_data(p) for p in parts)
 
 
-def _mesh_data(mesh: trimesh.Trimesh) -> MeshData:
+def _mesh_data(mesh: FinalMesh) -> MeshData:
     vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
     return MeshData(vertices_m=vertices, faces=np.ascontiguousarray(mesh.faces, dtype=np.int32))

@@ -60,9 +60,12 @@ def build_spec(scene: Scene, materials: dict[str, MaterialSpec], opts: SpecOptio
 
 def add_objects(spec: mujoco.MjSpec, objects, materials: dict[str, MaterialSpec], opts: SpecOptions) -> None:
     """The catalogue's materials and each placed object's body (the contact sheet uses it too,
-    so the sheet shows objects exactly as scenes do)."""
-    for name, m in materials.items():
-        _add_material(spec, f"mat_{name}", m)
+    so the sheet shows objects exactly as scenes do). A model without visual geoms (settling)
+    gets no materials: nothing would use them, and their builtin textures cost 0.6 ms of
+    every settle's compile; collisions and dynamics never read them."""
+    if opts.visual:
+        for name, m in materials.items():
+            _add_material(spec, f"mat_{name}", m)
     for obj in objects:
         _add_object(spec, obj, opts, materials)
 

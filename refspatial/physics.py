@@ -38,8 +38,12 @@ def settle(scene: Scene, materials: dict[str, MaterialSpec], recipe: Recipe) -> 
     mujoco.mj_forward(model, data)
     steps = int(round(spec_p["settle_s"] / model.opt.timestep))
     check = max(1, int(round(CHECK_EVERY_S / model.opt.timestep)))
-    for step in range(1, steps + 1):
-        mujoco.mj_step(model, data)
+    step = 0
+    while step < steps:
+        # MuJoCo runs the steps between two checks in one call (the same steps as one by one).
+        n = min(check, steps - step)
+        mujoco.mj_step(model, data, nstep=n)
+        step += n
         if step % check == 0:
             if not np.all(np.isfinite(data.qpos)):
                 raise SceneRejected("unstable_simulation", "non-finite state")
@@ -56,15 +60,13 @@ def contact_pairs(model, data, n_objects: int) -> tuple[tuple[int, int], ...]:
     from .mjcf import object_of_geom
 
     owner = object_of_geom(model, n_objects)
-    table = model.geom("table").id
-    pairs = set()
+    owner[model.geom("table").id] = -1
     n = data.ncon
     contacts = data.contact
-    for g1, g2, dist in zip(contacts.geom1[:n], contacts.geom2[:n], contacts.dist[:n]):
-        a, b = (int(owner[g]) if g != table else -1 for g in (g1, g2))
-        if a != b and max(a, b) >= 0 and dist < 0.002:
-            pairs.add((min(a, b), max(a, b)))
-    return tuple(sorted(pairs))
+    a, b = owner[contacts.geom1[:n]], owner[contacts.geom2[:n]]
+    touching = (a != b) & (np.maximum(a, b) >= 0) & (contacts.dist[:n] < 0.002)
+    low, high = np.minimum(a, b)[touching].tolist(), np.maximum(a, b)[touching].tolist()
+    return tuple(sorted(set(zip(low, high))))
 
 
 def _settled_object(model, data, obj: PlacedObject) -> PlacedObject:

@@ -6,11 +6,12 @@ frame. It draws nothing: every number comes from the parameters ``build_asset`` 
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-import trimesh
+if TYPE_CHECKING:
+    from .geometry import FinalMesh
 
-Built = tuple[trimesh.Trimesh, list[trimesh.Trimesh]]  # (visual mesh, convex collision parts)
+Built = tuple["FinalMesh", list["FinalMesh"]]  # (visual mesh, convex collision parts), from geometry.finish
 Builder = Callable[[dict[str, float]], Built]
 
 BUILDERS: dict[str, Builder] = {}
