@@ -109,8 +109,14 @@ def test_shelf_recipe_spreads_objects_over_its_boards(catalogue):
 
     shelf = load_recipe("shelf")
     levels_used = set()
-    for seed in range(6):
-        scene = compose(shelf, catalogue, seed)
+    scenes = []
+    for seed in range(12):
+        try:
+            scenes.append(compose(shelf, catalogue, seed))
+        except SceneRejected:  # a crowded draw is redrawn by the pipeline, as here
+            pass
+    assert len(scenes) >= 6
+    for scene in scenes[:6]:
         heights = surface_heights(scene.table)
         drop = shelf["objects"]["drop_height_m"]
         for o in scene.objects:
