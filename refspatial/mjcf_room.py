@@ -83,6 +83,11 @@ def add_room(spec: mujoco.MjSpec, scene: Scene, friction: tuple[float, float, fl
     for k, prop in enumerate(room.props):
         if prop.kind == "window":  # the only prop with a texture of its own (an MJCF export writes it)
             _window(spec, f"prop{k}", prop, room, wood, folder)
+        elif prop.kind == "shelf":
+            # A bookcase full of spines behind a scene with a book makes "the book" name dozens of
+            # things to a reader (annotator): its boards then stand empty.
+            _shelf(spec, f"prop{k}", prop, room, wood,
+                   spines=not any(o.asset.category == "book" for o in scene.objects))
         else:
             _PROPS[prop.kind](spec, f"prop{k}", prop, room, wood)
     add_lights(spec, scene)
@@ -195,7 +200,7 @@ def _cabinet(spec, name: str, prop: Prop, room: Room, wood: str) -> None:
                rgba=[0.7, 0.7, 0.72, 1])
 
 
-def _shelf(spec, name: str, prop: Prop, room: Room, wood: str) -> None:
+def _shelf(spec, name: str, prop: Prop, room: Room, wood: str, spines: bool = True) -> None:
     d, w, h = prop.size_m
     t = 0.02
     for y in (-w / 2 + t / 2, w / 2 - t / 2):
@@ -207,8 +212,8 @@ def _shelf(spec, name: str, prop: Prop, room: Room, wood: str) -> None:
     for k in range(boards):
         z = k * (h - t) / (boards - 1)
         _block(spec, prop, d / 2, 0, z + t / 2, (d / 2, w / 2 - t, t / 2), wood)
-        if k == boards - 1:
-            break
+        if k == boards - 1 or not spines:
+            continue
         y, j = -w / 2 + 2 * t, 0
         gap = (h - t) / (boards - 1)
         while y < w / 2 - 3 * t:  # rows of book spines: deterministic from the shelf's size

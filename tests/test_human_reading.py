@@ -329,3 +329,48 @@ def test_in_front_of_is_not_asked_across_shelf_boards():
     assert PREDICATES["in_front_of"](view(bottom, top), top, bottom) is None
     level = _facts({"id": 1, "category": "jar", "at": [0.1, 0.0, 0.0], "size": [0.08, 0.08, 0.12]})
     assert PREDICATES["in_front_of"](view(bottom, level), level, bottom) is True
+
+
+def test_the_nearest_needs_every_reading_of_nearer():
+    """Two vases on different shelf boards: the one on the top board is nearer along the optical
+    axis, level with the other in a straight line: "the nearest vase" picks neither (annotator).
+    On one board, clearly apart, the nearer is the nearest."""
+    from refspatial.questions.program import ProgramError, execute
+
+    nodes = [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": "vase", "color": None},
+             {"op": "ordinal", "inputs": [1], "axis": "depth", "end": "near", "rank": 1}]
+    low = _facts({"id": 0, "category": "vase", "at": [0.0, 0.0, 0.0], "size": [0.1, 0.1, 0.2], "depth": 1.2})
+    high = _facts({"id": 1, "category": "vase", "at": [0.1, 0.2, 0.38], "size": [0.1, 0.1, 0.2], "depth": 1.1,
+                   "support": -2})
+    with pytest.raises(ProgramError, match="undecided"):
+        execute(nodes, view(low, high))
+    level = _facts({"id": 1, "category": "vase", "at": [0.1, 0.5, 0.0], "size": [0.1, 0.1, 0.2]})
+    assert execute(nodes, view(low, level))[-1] == 0
+
+
+def test_a_camera_pan_turns_about_the_vertical():
+    """The camera looks 30 degrees down; a jar 0.5 m right and 1 m ahead of it on the ground
+    plane needs a level pan of atan(0.5 / 1) = 26.6 degrees, whatever its height (the camera's
+    tilted up-axis gives another angle: annotator), then a tilt to its elevation."""
+    jar = _facts({"id": 0, "category": "jar", "at": [0.5, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
+    v = view(jar)
+    pan = PREDICATES["rotate_horizontal"](v, jar)
+    assert pan.value == pytest.approx(np.degrees(np.arctan2(0.5, 1.0)), abs=0.01)
+    centre = jar.center_world_m - T[:3, 3]
+    elevation = np.degrees(np.arctan2(centre[2], np.hypot(centre[0], centre[1])))
+    assert PREDICATES["rotate_vertical"](v, jar).value == pytest.approx(elevation + 30.0, abs=0.01)
+
+
+def test_ranks_from_the_left_are_counted_in_the_picture():
+    """A lemon 13 cm further left in the room but drawn in the same image column as another has
+    no rank a reader can see (annotator: "the second lemon from the left"); drawn apart, it does."""
+    from refspatial.questions.program import ProgramError, execute
+
+    nodes = [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": "lemon", "color": None},
+             {"op": "ordinal", "inputs": [1], "axis": "left_right", "end": "left", "rank": 1}]
+    back = _facts({"id": 0, "category": "lemon", "at": [-0.13, 0.6, 0.0], "size": [0.07, 0.06, 0.06]})
+    front = _facts({"id": 1, "category": "lemon", "at": [0.0, 0.0, 0.0], "size": [0.07, 0.06, 0.06]})
+    assert execute(nodes, view(back, front))[-1] == 0
+    same_column = dataclasses.replace(back, centroid_px=(front.centroid_px[0] + 1.0, back.centroid_px[1]))
+    with pytest.raises(ProgramError, match="picture"):
+        execute(nodes, view(same_column, front))

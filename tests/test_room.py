@@ -192,3 +192,27 @@ def test_a_recipe_can_dress_the_room_with_its_own_images(tmp_path, catalogue) ->
     recipe_file.write_text("extends: tabletop\nname: mine\nroom:\n  sky: missing.jpg\n")
     with pytest.raises(ValueError, match="room.sky: .*missing.jpg is not a file"):
         load_recipe(str(recipe_file))  # at load, in one line: not once per scene
+
+
+def test_a_bookcase_behind_a_book_holds_no_spines(catalogue) -> None:
+    """Behind a scene with a book, the room's bookcase stands empty: a reader asked for "the book"
+    should not have dozens to choose from (annotator)."""
+    import mujoco
+
+    from refspatial.mjcf_room import add_room
+
+    def geoms(scene) -> int:
+        spec = mujoco.MjSpec()
+        add_room(spec, scene, friction=(1.0, 0.005, 0.0001))
+        return len(spec.worldbody.geoms)
+
+    for seed in range(1, 40):
+        _, scene = _scene(catalogue, "shelf", seed)
+        if any(p.kind == "shelf" for p in scene.room.props):
+            break
+    else:
+        raise AssertionError("no shelf scene with a bookcase in 40 seeds")
+    plain = [dataclasses.replace(o, asset=dataclasses.replace(o.asset, category="vase")) for o in scene.objects]
+    with_book = plain[:-1] + [dataclasses.replace(plain[-1], asset=dataclasses.replace(plain[-1].asset, category="book"))]
+    spines = geoms(dataclasses.replace(scene, objects=plain)) - geoms(dataclasses.replace(scene, objects=with_book))
+    assert spines > 20

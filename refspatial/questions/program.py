@@ -18,6 +18,7 @@ import numpy as np
 
 from ..relations import PREDICATES, Quantity, ViewFacts
 from ..relations.directional import DEPTH_MARGIN_M
+from ..relations.masks import box_of, cached_boxes
 from ..relations.metric import centre_distance
 from ..relations.free_space import Constraint, solve
 
@@ -114,7 +115,45 @@ def _ordinal(view: ViewFacts, node: Node, ids: list[int]) -> int:
             gap = max(margin, ORDINAL_SIZE_SHARE * extents / 2)
         if abs(coords[j] - coords[rank - 1]) <= gap:
             raise ProgramError("ordinal neighbours are a near-tie")
+    if node["axis"] == "depth":
+        _check_depth_order(view, order, rank)
+    if node["axis"] == "left_right":
+        _check_picture_order(view, order, rank, from_left=node["end"] == "left")
     return order[rank - 1]
+
+
+def _check_picture_order(view: ViewFacts, order: list[int], rank: int, from_left: bool) -> None:
+    """"The second lemon from the left" is counted in the picture: the chosen one and each
+    neighbour in the ranking must stand apart across the image too, in the same order, by half
+    their mean width there. A lemon in a pan 13 cm further left in the room, drawn in the same
+    column as one in front, has no rank a reader can see (annotator)."""
+    boxes = cached_boxes(view)
+    chosen = view.objects[order[rank - 1]]
+    for j in (rank - 2, rank):
+        if not 0 <= j < len(order):
+            continue
+        other = view.objects[order[j]]
+        ba, bb = box_of(boxes, chosen.object_id), box_of(boxes, other.object_id)
+        if chosen.centroid_px is None or other.centroid_px is None or ba is None or bb is None:
+            raise ProgramError("an ordinal neighbour is not seen")
+        widths = (ba[1].stop - ba[1].start) + (bb[1].stop - bb[1].start)
+        later, earlier = (other, chosen) if j > rank - 1 else (chosen, other)
+        apart = (later.centroid_px[0] - earlier.centroid_px[0]) * (1 if from_left else -1)
+        if apart <= ORDINAL_SIZE_SHARE * widths / 2:
+            raise ProgramError("ordinal neighbours are a near-tie in the picture")
+
+
+def _check_depth_order(view: ViewFacts, order: list[int], rank: int) -> None:
+    """"The nearest vase" needs it nearer than each other vase by every reading of "closer to
+    the camera" (visible surface, centre depth, straight line; never across shelf boards): a vase
+    on the top board nearer along the optical axis but level in a straight line with one on the
+    board below is nearest to nobody (annotator)."""
+    chosen = order[rank - 1]
+    for other in order:
+        if other != chosen:
+            pair = sorted((chosen, other), key=lambda i: view.objects[i].depth_m)  # the order's own key
+            if not _verdict(view, "closer_to_camera", pair):
+                raise ProgramError("the depth ranking is not clear by every reading")
 
 
 @op("unique")

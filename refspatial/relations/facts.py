@@ -27,6 +27,9 @@ from .masks import BOXES_KEY, object_boxes, object_pixels
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
 MIN_VISIBLE_PX = 20
 MIN_VISIBLE_SHARE = 0.4  # an object less visible than this (of its silhouette) is too occluded to ask about
+# A book lying flat under a can, seen edge-on as a strip 6 px tall (594 px in all), does not read
+# as a book (annotator): what is asked about must span this many pixels both ways.
+MIN_VISIBLE_SPAN_PX = 10
 SUPPORT_GAP_M = 0.05  # RefSpatial: a platform top within 5 cm of an object's bottom...
 SUPPORT_COVER = 0.7  # ...covering >= 70 % of its footprint supports it
 TABLE = -1  # support id of the table
@@ -234,7 +237,9 @@ def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px
     rows, cols, _ = object_pixels(view.seg, boxes, obj.object_id)
     depth = float(np.median(view.depth_m[rows, cols])) if px else float("inf")
     share = min(1.0, px / max(_silhouette_px(verts, asset.visual.faces, view), 1))
-    status = "visible" if px >= min_px and share >= MIN_VISIBLE_SHARE else ("marginal" if px else "hidden")
+    seen_whole = px >= min_px and share >= MIN_VISIBLE_SHARE and \
+        min(np.ptp(rows), np.ptp(cols)) + 1 >= MIN_VISIBLE_SPAN_PX
+    status = "visible" if seen_whole else ("marginal" if px else "hidden")
     return ObjectFacts(
         obj.object_id, asset.category, asset.name, asset.color, aabb, float(centre @ right),
         float(centre @ forward), depth, px, status,

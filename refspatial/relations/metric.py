@@ -190,25 +190,39 @@ def angle_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity | No
 
 @predicate("rotate_horizontal", family="rotation", arity=1, frame="camera", kind="measure")
 def rotate_horizontal(v: ViewFacts, a: ObjectFacts) -> Quantity | None:
-    """Yaw the camera must turn to face the object's centre, degrees; positive = turn right.
+    """How far the camera must pan to face the object's centre, degrees; positive = turn right.
 
-    None when already within 2 degrees of it (no direction to ask about) or unseen.
+    A pan turns about the world's vertical, as a pan-tilt head or a robot's base does, so it is
+    the angle on the ground between the camera's heading and the direction of the object. The
+    camera's own tilted up-axis would give another answer for a camera looking down (28 degrees
+    where a level pan needs 37: annotator). None when already within 2 degrees, or unseen.
     """
-    ray = _ray(v, a)
+    ray = _world_ray(v, a)
     if ray is None:
         return None
-    yaw = float(np.degrees(np.arctan2(ray[0], ray[2])))
+    yaw = float(np.degrees(np.arctan2(ray @ v.right_axis, ray @ v.forward_axis)))
     return None if abs(yaw) < CENTRED_DEG else Quantity(yaw, "deg")
 
 
 @predicate("rotate_vertical", family="rotation", arity=1, frame="camera", kind="measure")
 def rotate_vertical(v: ViewFacts, a: ObjectFacts) -> Quantity | None:
-    """Pitch the camera must turn to face the object's centre, degrees; positive = tilt up.
-
-    None when already within 2 degrees of it, or unseen.
+    """How far the camera must tilt to face the object's centre once it has panned to it,
+    degrees; positive = tilt up: the object's elevation seen from the camera less the camera's
+    own pitch. None when already within 2 degrees, or unseen.
     """
-    ray = _ray(v, a)
+    ray = _world_ray(v, a)
     if ray is None:
         return None
-    pitch = float(np.degrees(np.arctan2(-ray[1], np.hypot(ray[0], ray[2]))))
+    heading = v.T_world_cam[:3, 2]
+    pitch = _elevation_deg(ray) - _elevation_deg(heading)
     return None if abs(pitch) < CENTRED_DEG else Quantity(pitch, "deg")
+
+
+def _world_ray(v: ViewFacts, o: ObjectFacts) -> np.ndarray | None:
+    """World-frame unit ray from the camera towards the object's centre."""
+    ray = _ray(v, o)
+    return None if ray is None else v.T_world_cam[:3, :3] @ ray
+
+
+def _elevation_deg(d: np.ndarray) -> float:
+    return float(np.degrees(np.arctan2(d[2], np.hypot(d[0], d[1]))))
