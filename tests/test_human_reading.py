@@ -374,3 +374,14 @@ def test_ranks_from_the_left_are_counted_in_the_picture():
     same_column = dataclasses.replace(back, centroid_px=(front.centroid_px[0] + 1.0, back.centroid_px[1]))
     with pytest.raises(ProgramError, match="picture"):
         execute(nodes, view(same_column, front))
+
+
+def test_in_front_of_needs_more_depth_than_offset_by_either_centre():
+    """A pen holder with pens in it: its mesh's box centre and its oriented footprint's differ by
+    centimetres. 34 cm deeper and 25 cm across by one, 31 cm across by the other: a strict reader
+    taking the second sees them diagonally, so "in front of" is not asked (strict audit)."""
+    near = _facts({"id": 0, "category": "pen_holder", "at": [0.0, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
+    far = _facts({"id": 1, "category": "pen_holder", "at": [0.25, 0.34, 0.0], "size": [0.08, 0.08, 0.1]})
+    assert PREDICATES["in_front_of"](view(near, far), near, far) is True
+    shifted = dataclasses.replace(far, footprint_world=far.footprint_world + np.array([0.06, 0.0]))
+    assert PREDICATES["in_front_of"](view(near, shifted), near, shifted) is None
