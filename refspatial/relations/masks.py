@@ -8,8 +8,12 @@ stays inside it. Results equal the whole-frame versions, in the same (row-major)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import ndimage
+
+from ..colour import mean_lab
 
 Box = tuple[slice, slice]
 
@@ -20,6 +24,7 @@ def object_boxes(seg: np.ndarray) -> list[Box | None]:
 
 
 BOXES_KEY = ("boxes",)  # where a ViewFacts' cache keeps its segmentation's object boxes
+PIXELS_KEY = ("pixel_stats",)  # and the PixelStats of its objects (object id -> PixelStats)
 
 
 def cached_boxes(view) -> list[Box | None]:
@@ -33,16 +38,34 @@ def box_of(boxes: list[Box | None], object_id: int) -> Box | None:
     return boxes[object_id] if 0 <= object_id < len(boxes) else None
 
 
-def object_pixels(seg: np.ndarray, boxes: list[Box | None], object_id: int) -> tuple[np.ndarray, np.ndarray, Box | None]:
-    """(rows, cols) of the object's pixels in frame coordinates, and its box."""
-    box = box_of(boxes, object_id)
-    if box is None:
-        empty = np.zeros(0, dtype=np.intp)
-        return empty, empty, None
-    rows, cols = np.nonzero(seg[box] == object_id)
-    return rows + box[0].start, cols + box[1].start, box
-
-
 def padded(box: Box, pad: int, shape: tuple[int, int]) -> Box:
     """The box grown by ``pad`` pixels on every side, clipped to the frame."""
     return tuple(slice(max(s.start - pad, 0), min(s.stop + pad, n)) for s, n in zip(box, shape))  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class PixelStats:
+    """What an object's visible pixels say: how many, their median depth, their centroid and
+    mean colour. The record's facts and the facts rebuilt from it both need the first three
+    from the same segmentation and depth, so they are found once per view."""
+
+    count: int
+    depth_m: float  # median camera depth, inf when unseen
+    centroid_px: tuple[float, float] | None  # (column, row), pixel centres at +0.5
+    lab: tuple[float, float, float] | None  # None unless colours were given
+
+
+def pixel_stats(seg: np.ndarray, depth_m: np.ndarray, boxes: list[Box | None], object_id: int,
+                rgb: np.ndarray | None = None) -> PixelStats:
+    """The object's PixelStats. Its pixels are gathered through a boolean mask of its box: the
+    same values in the same (row-major) order as indexing with the mask's rows and columns, at a
+    fraction of the cost."""
+    box = box_of(boxes, object_id)
+    if box is None:
+        return PixelStats(0, float("inf"), None, None)
+    mask = seg[box] == object_id
+    rows, cols = np.nonzero(mask)
+    rows, cols = rows + box[0].start, cols + box[1].start
+    lab = mean_lab(rgb[box][mask]) if rgb is not None else None
+    return PixelStats(len(rows), float(np.median(depth_m[box][mask])),
+                      (float(cols.mean() + 0.5), float(rows.mean() + 0.5)), lab)
