@@ -10,10 +10,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy import ndimage
 
-from ..colour import mean_lab
+from ..colour import lab_of_mean
 
 Box = tuple[slice, slice]
 
@@ -57,15 +58,23 @@ class PixelStats:
 
 def pixel_stats(seg: np.ndarray, depth_m: np.ndarray, boxes: list[Box | None], object_id: int,
                 rgb: np.ndarray | None = None) -> PixelStats:
-    """The object's PixelStats. Its pixels are gathered through a boolean mask of its box: the
-    same values in the same (row-major) order as indexing with the mask's rows and columns, at a
-    fraction of the cost."""
+    """The object's PixelStats, from a boolean mask of its box.
+
+    Sums instead of gathered pixels where the result is the same: numpy's mean of integers sums
+    them exactly in float64 and divides once by the count, so an exact integer sum divided by
+    the count gives the same bits (centroids from per-row and per-column counts, the mean
+    colour from OpenCV's masked sum), at a tenth of the cost. The median needs the depths."""
     box = box_of(boxes, object_id)
     if box is None:
         return PixelStats(0, float("inf"), None, None)
     mask = seg[box] == object_id
-    rows, cols = np.nonzero(mask)
-    rows, cols = rows + box[0].start, cols + box[1].start
-    lab = mean_lab(rgb[box][mask]) if rgb is not None else None
-    return PixelStats(len(rows), float(np.median(depth_m[box][mask])),
-                      (float(cols.mean() + 0.5), float(rows.mean() + 0.5)), lab)
+    per_row, per_col = mask.sum(axis=1), mask.sum(axis=0)
+    count = int(per_row.sum())
+    row_sum = int(per_row @ np.arange(box[0].start, box[0].stop))
+    col_sum = int(per_col @ np.arange(box[1].start, box[1].stop))
+    centroid = (float(np.float64(col_sum) / count + 0.5), float(np.float64(row_sum) / count + 0.5))
+    lab = None
+    if rgb is not None:
+        channel_sums = cv2.sumElems(cv2.copyTo(rgb[box], mask.view(np.uint8)))[:3]
+        lab = lab_of_mean(np.array(channel_sums) / count)
+    return PixelStats(count, float(np.median(depth_m[box][mask])), centroid, lab)
