@@ -21,6 +21,12 @@ def rounded(values, digits: int = DIGITS) -> list[float]:
     return [round(float(v), digits) for v in np.asarray(values, dtype=float).ravel()]
 
 
+def rounded_rows(rows, digits: int = DIGITS) -> list[list[float]]:
+    """``[rounded(r) for r in rows]`` of a 2-D array in one conversion (an outline has dozens of
+    corners; ``tolist`` gives the same Python floats as ``float`` of each element)."""
+    return [[round(v, digits) for v in row] for row in np.asarray(rows, dtype=float).tolist()]
+
+
 def object_record(obj: PlacedObject, facts: ObjectFacts) -> dict:
     """Everything about one object that a record keeps (and predicates need)."""
     a = obj.asset
@@ -42,8 +48,8 @@ def object_record(obj: PlacedObject, facts: ObjectFacts) -> dict:
         "box_world": {"center_m": rounded(R @ ((lo + hi) / 2) + obj.pose.pos_world_m), "size_m": rounded(hi - lo),
                       "quat_wxyz": rounded(obj.pose.quat_wxyz)},
         "aabb_world_m": [rounded(facts.aabb_world_m[0]), rounded(facts.aabb_world_m[1])],
-        "footprint_world_m": [rounded(c) for c in facts.footprint_world],
-        "outline_world_m": [rounded(c) for c in facts.outline_world] if facts.outline_world is not None else None,
+        "footprint_world_m": rounded_rows(facts.footprint_world),
+        "outline_world_m": rounded_rows(facts.outline_world) if facts.outline_world is not None else None,
         "front_world": rounded(facts.front_world),
         "front_side": a.front_side,
         "volume_m3": round(facts.volume_m3, 9),
