@@ -25,7 +25,12 @@ def mean_lab(pixels: np.ndarray) -> tuple[float, float, float] | None:
     """Lab of the mean colour of uint8 pixels (N, 3); None without pixels."""
     if len(pixels) == 0:
         return None
-    return tuple(float(v) for v in srgb_to_lab(pixels.reshape(-1, 3).mean(axis=0) / 255.0))  # type: ignore[return-value]
+    return lab_of_mean(pixels.reshape(-1, 3).mean(axis=0))
+
+
+def lab_of_mean(mean_rgb: np.ndarray) -> tuple[float, float, float]:
+    """Lab of a mean uint8-scale sRGB colour (3,)."""
+    return tuple(float(v) for v in srgb_to_lab(mean_rgb / 255.0))  # type: ignore[return-value]
 
 
 def delta_e(a, b) -> float:

@@ -21,7 +21,8 @@ from .questions import questions_for_view
 from .recipe import Recipe
 from .records import Record
 from .relations import ViewFacts, computed_relations, view_facts
-from .relations.masks import cached_boxes
+from .relations.facts import posed_shapes
+from .relations.masks import PIXELS_KEY, cached_boxes
 from .relations.stored import facts_from_record, object_record, rounded
 from .render import View, render_views
 from .scene import Light, Room, Scene
@@ -80,10 +81,12 @@ def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutc
     with _timed(out.seconds, "render", out.peak_bytes):
         views = render_views(scene, catalogue.materials)
     with _timed(out.seconds, "relations", out.peak_bytes):
-        seen = [view_facts(scene, v) for v in views]
+        shapes = posed_shapes(scene)  # the same in every view
+        seen = [view_facts(scene, v, shapes) for v in views]
         described = [scene_dict(scene, i, v, f) for i, (v, f) in enumerate(zip(views, seen))]
         # Questions see the facts as stored, so re-executing a program on the record gives the same answer.
-        facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam, boxes=cached_boxes(f))
+        facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam, boxes=cached_boxes(f),
+                                   pixels=f.cache[PIXELS_KEY])
                  for d, v, f in zip(described, views, seen)]
         relations = [computed_relations(f) for f in facts]
     keys = [f"{scene.scene_id}/{v.camera.name}" for v in views]

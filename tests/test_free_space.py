@@ -228,3 +228,23 @@ def test_no_free_spot_between_a_shelf_s_posts():
         _, polygon, _ = _platform(shelf, (Constraint("sector", (0,), "left"),), [mug])
         reach = polygon[:, 0].max()
         assert (reach <= hx - LEG_INSET_M - LEG_HALF_M) if inner else reach == pytest.approx(hx), support
+
+
+def test_grid_inside_test_equals_the_pointwise_one():
+    """The separable grid test (axis-aligned platforms) gives exactly the pointwise test's flags,
+    on cell centres that straddle every edge; turned polygons go the pointwise way."""
+    from refspatial.relations.geometry import inside_convex_grid
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        hx, hy = rng.uniform(0.05, 3.0, 2)
+        xs = (np.arange(-int(hx * 100) - 5, int(hx * 100) + 5) + 0.5) * 0.01
+        ys = (np.arange(-int(hy * 100) - 5, int(hy * 100) + 5) + 0.5) * 0.01
+        square = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
+        turn = rng.uniform(0, np.pi)
+        turned = square @ np.array([[np.cos(turn), np.sin(turn)], [-np.sin(turn), np.cos(turn)]])
+        points = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+        for poly in (square, square[::-1], turned):
+            for grow in (0.0, -0.02, 0.015):
+                expected = inside_convex(points, poly, grow).reshape(len(ys), len(xs))
+                assert np.array_equal(inside_convex_grid(xs, ys, poly, grow), expected)

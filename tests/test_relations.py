@@ -264,3 +264,69 @@ def test_a_stored_outline_does_not_depend_on_the_last_bits_of_the_pose():
     lowest = np.lexsort((first[:, 0], first[:, 1]))[0]
     (ax, ay), (bx, by) = first[1] - first[0], first[2] - first[1]
     assert lowest == 0 and ax * by - ay * bx > 0  # counter-clockwise
+
+
+def test_pixel_stats_equal_the_gathered_pixels_statistics():
+    """Centroid and mean colour from sums give the same bits as numpy's means of the gathered
+    pixels (what records stored before), and the median depth is theirs."""
+    from refspatial.colour import mean_lab
+    from refspatial.relations.masks import object_boxes, pixel_stats
+
+    rng = np.random.default_rng(5)
+    seg = np.full((120, 160), -1, dtype=np.int32)
+    for k in range(6):
+        r, c = rng.integers(0, 100), rng.integers(0, 140)
+        seg[r:r + rng.integers(1, 40), c:c + rng.integers(1, 40)] = k
+    seg[rng.random(seg.shape) < 0.1] = -1  # ragged masks
+    depth = rng.uniform(0.3, 3.0, seg.shape).astype(np.float32)
+    rgb = rng.integers(0, 256, (*seg.shape, 3), dtype=np.uint8)
+    boxes = object_boxes(seg)
+    for k in range(7):
+        rows, cols = np.nonzero(seg == k)
+        stats = pixel_stats(seg, depth, boxes, k, rgb)
+        assert stats.count == len(rows)
+        if not len(rows):
+            assert stats.centroid_px is None and stats.lab is None and stats.depth_m == float("inf")
+            continue
+        assert stats.centroid_px == (float(cols.mean() + 0.5), float(rows.mean() + 0.5))
+        assert stats.lab == mean_lab(rgb[rows, cols])
+        assert stats.depth_m == float(np.median(depth[rows, cols]))
+
+
+def _clip_edge_by_edge(subject: np.ndarray, clipper: np.ndarray) -> np.ndarray:
+    """Sutherland-Hodgman written out corner by corner: what clip_convex must equal exactly."""
+    from refspatial.relations.geometry import ccw
+
+    out, clip = ccw(subject), ccw(clipper)
+    for a, b in zip(clip, np.roll(clip, -1, axis=0)):
+        if len(out) == 0:
+            break
+        edge = b - a
+        side = edge[0] * (out[:, 1] - a[1]) - edge[1] * (out[:, 0] - a[0])
+        kept = []
+        for i in range(len(out)):
+            p, q, sp, sq = out[i], out[(i + 1) % len(out)], side[i], side[(i + 1) % len(out)]
+            if sp >= 0:
+                kept.append(p)
+            if (sp >= 0) != (sq >= 0):
+                kept.append(p + (q - p) * (sp / (sp - sq)))
+        out = np.array(kept) if kept else np.zeros((0, 2))
+    return out
+
+
+def test_clip_convex_equals_clipping_corner_by_corner():
+    from scipy.spatial import ConvexHull
+
+    from refspatial.relations.geometry import clip_convex
+
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        polys = []
+        for _ in range(2):
+            pts = rng.normal(0, rng.uniform(0.02, 0.3), (rng.integers(4, 60), 2)) + rng.normal(0, 0.1, 2)
+            hull = pts[ConvexHull(pts).vertices]
+            polys.append(np.round(hull, 3) if rng.random() < 0.3 else hull)
+        a, b = polys
+        for s, c in ((a, b), (b, a), (a, a), (a, a[::-1])):
+            got, want = clip_convex(s, c), _clip_edge_by_edge(s, c)
+            assert got.shape == want.shape and np.array_equal(got, want)

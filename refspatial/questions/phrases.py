@@ -27,11 +27,11 @@ class Phrasebook:
     def get() -> "Phrasebook":
         return Phrasebook(yaml.safe_load(TEMPLATES.read_text(encoding="utf-8")))
 
-    @property
-    def phrased(self) -> set[str]:
+    @cached_property  # read per description search (frozen: every caller shares it)
+    def phrased(self) -> frozenset[str]:
         """Predicates with forward phrases, plus "name:reverse" for those with reverse ones."""
         rel = self.data["relations"]
-        return set(rel) | {f"{n}:reverse" for n, e in rel.items() if "reverse" in e}
+        return frozenset(rel) | {f"{n}:reverse" for n, e in rel.items() if "reverse" in e}
 
     @cached_property  # read per description search
     def rule_out_others(self) -> frozenset[str]:

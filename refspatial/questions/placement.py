@@ -88,10 +88,11 @@ def _question(views, spec: dict, refs, constraints: list[dict], rng) -> QA | Non
     except ProgramError:
         return None
     answer = solve(view, as_constraints(constraints, values, anchors))
-    # Further points keep clear of every object in the picture too, as the first one does.
-    roomy = answer.mask & image_clearance(view, answer.support)
-    extra = sample_mask_points(roomy, spec["answer_points"] - 1, rng, erosion_px(view)) \
-        if spec["answer_points"] > 1 else []
+    extra = []
+    if spec["answer_points"] > 1:
+        # Further points keep clear of every object in the picture too, as the first one does.
+        roomy = answer.mask & image_clearance(view, answer.support)
+        extra = sample_mask_points(roomy, spec["answer_points"] - 1, rng, erosion_px(view))
     if extra is None:
         return None
     points = [values[-1], *extra]

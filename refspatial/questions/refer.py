@@ -10,6 +10,7 @@ picks the intended object and none of its relations is degenerate.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -260,12 +261,13 @@ class _Part:
 
 def _head(view: ViewFacts, category: str | None, color: str | None) -> int:
     """The head's candidates as a bit mask; 0 when one of them is only partly visible, since
-    relations about a cut-off object cannot be decided safely."""
-    ids = [o.object_id for o in view.objects if o.status != "hidden"
-           and category in (None, o.category) and color in (None, o.color)]
-    if any(view.objects[i].status != "visible" for i in ids):
-        return 0
-    return sum(1 << i for i in ids)
+    relations about a cut-off object cannot be decided safely (memoised per view)."""
+    key = ("head", category, color)
+    if key not in view.cache:
+        ids = [o.object_id for o in view.objects if o.status != "hidden"
+               and category in (None, o.category) and color in (None, o.color)]
+        view.cache[key] = 0 if any(view.objects[i].status != "visible" for i in ids) else sum(1 << i for i in ids)
+    return view.cache[key]
 
 
 def _scored_parts(view: ViewFacts, target: ObjectFacts, head: int, kind: str, phrased: set[str], rng) -> list[_Part]:
@@ -298,7 +300,9 @@ def _pairs(head: int, binary: list[_Part]) -> list[_Part]:
     for i, a in enumerate(binary):
         for b in binary[i + 1:]:
             (ra,), (rb,) = a.rels, b.rels
-            if (ra.anchors != rb.anchors or ra.anchors[0].relations or ra.reverse or rb.reverse
+            # Object ids first: comparing two anchors' descriptions field by field is the slow test.
+            if (ra.anchors[0].object_id != rb.anchors[0].object_id or ra.reverse or rb.reverse
+                    or ra.anchors != rb.anchors or ra.anchors[0].relations
                     or frozenset((ra.predicate, rb.predicate)) not in allowed):
                 continue
             if head & a.kept & ~b.kept and head & b.kept & ~a.kept:
@@ -325,7 +329,7 @@ def _fitting_combinations(target: int, head: int, shapes, rng,
     found: list[tuple[_Part, ...]] = []
     for shape in shapes:
         lists = [parts_of(kind) for kind in shape]
-        size = int(np.prod([len(x) for x in lists]))
+        size = math.prod(len(x) for x in lists)
         if size == 0:
             continue
         if size > COMBOS_CHECKED:  # keep a random share of each list so that the product fits
@@ -440,12 +444,14 @@ def _named_objects(relations: tuple[Relation, ...]) -> int:
 
 def _kept(view: ViewFacts, rel: Relation, ids: list[int]) -> tuple[int, int]:
     anchors = [a.object_id for a in rel.anchors]
+    anchor_facts = [view.objects[k] for k in anchors]
+    pred = PREDICATES[rel.predicate]
     kept = undecided = 0
     for i in ids:
         if i in anchors:
             continue
-        args = [*anchors, i] if rel.reverse else [i, *anchors]
-        verdict = PREDICATES[rel.predicate](view, *(view.objects[k] for k in args))
+        o = view.objects[i]
+        verdict = pred(view, *anchor_facts, o) if rel.reverse else pred(view, o, *anchor_facts)
         if verdict is None:
             undecided |= 1 << i
         elif verdict:
@@ -458,9 +464,13 @@ def _holds(view: ViewFacts, name: str, objs: list[ObjectFacts]) -> bool:
 
 
 def holds_anything(view: ViewFacts, container: ObjectFacts) -> bool:
-    """Some seen object is inside the container."""
-    return any(_holds(view, "inside", [o, container]) for o in view.objects
-               if o.object_id != container.object_id and o.status != "hidden")
+    """Some seen object is inside the container (memoised per view and facts object: every
+    description search with an "outside" part asks it of every anchor)."""
+    key = ("holds_anything", container)
+    if key not in view.cache:
+        view.cache[key] = any(_holds(view, "inside", [o, container]) for o in view.objects
+                              if o.object_id != container.object_id and o.status != "hidden")
+    return view.cache[key]
 
 
 def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref], phrased: set[str]):

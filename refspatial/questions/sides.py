@@ -56,7 +56,15 @@ def front_to_camera_deg(view: ViewFacts, o: ObjectFacts) -> float | None:
 
 
 def side_visible(view: ViewFacts, o: ObjectFacts) -> bool:
-    """Whether a question may name the object's side (``o.front_side``) in this view."""
+    """Whether a question may name the object's side (``o.front_side``) in this view (memoised
+    per view and facts object: every description search asks it of every anchor)."""
+    key = ("side_visible", o)
+    if key not in view.cache:
+        view.cache[key] = _side_visible(view, o)
+    return view.cache[key]
+
+
+def _side_visible(view: ViewFacts, o: ObjectFacts) -> bool:
     if o.front_side == NO_FRONT:
         return False
     angle = front_to_camera_deg(view, o)

@@ -14,7 +14,7 @@ import numpy as np
 from .facts import ObjectFacts, ViewFacts
 from .masks import box_of, cached_boxes
 from .registry import Verdict, compare, predicate
-from .vertical import containment
+from .vertical import contained
 
 CLEAR_GAP_M = 0.01  # extents along an axis must be at least this far apart: boxes are bounds, not shapes
 # Across shelf boards the gap must be wider: a mug on the bottom board 2 cm right of a box on the
@@ -162,7 +162,7 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
     top board is not "between" two things on the board below whatever the plan view.
     """
     if (v.on_other_levels(a, b, c) or v.stacked(a, b) or v.stacked(a, c)
-            or containment(a, b) is True or containment(a, c) is True):
+            or contained(v, a, b) is True or contained(v, a, c) is True):
         return False
     t, d, length = _along_and_off(*(o.center_world_m[:2] for o in (a, b, c)))
     if length < BETWEEN_MIN_GAP_M:

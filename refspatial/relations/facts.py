@@ -17,12 +17,10 @@ from functools import cached_property
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from ..colour import mean_lab
-
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
 from .geometry import covered_pixels, gap_between, overlap_share, project
-from .masks import BOXES_KEY, object_boxes, object_pixels
+from .masks import BOXES_KEY, PIXELS_KEY, box_of, object_boxes, pixel_stats
 
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
 MIN_VISIBLE_PX = 20
@@ -209,18 +207,51 @@ class ViewFacts:
         return len(levels) > 1 and None not in levels
 
 
-def view_facts(scene: Scene, view: View) -> ViewFacts:
+@dataclass(frozen=True, eq=False)
+class PosedShape:
+    """What an object's pose makes of its mesh, the same from every view of a scene: computed once
+    per scene (``posed_shapes``), not once per view (the convex outline alone is a qhull run)."""
+
+    pose: np.ndarray  # 4x4 world <- object
+    verts: np.ndarray  # (V, 3) posed visual vertices
+    aabb: np.ndarray  # (2, 3)
+    footprint: np.ndarray  # (4, 2)
+    front: np.ndarray  # (3,)
+    outline: np.ndarray  # (K, 2)
+
+
+def posed_shapes(scene: Scene) -> tuple[PosedShape, ...]:
+    """Each object's PosedShape, indexed like ``scene.objects``. The arrays are shared by every
+    view's facts, so they are made read-only."""
+    out = []
+    for obj in scene.objects:
+        T = obj.pose.matrix()
+        asset = obj.asset
+        verts = asset.visual.vertices_m @ T[:3, :3].T + T[:3, 3]
+        shape = PosedShape(T, verts, np.stack([verts.min(0), verts.max(0)]), _footprint(asset, T),
+                           T[:3, :3] @ np.asarray(asset.front_local), _outline(verts))
+        for a in (shape.pose, shape.verts, shape.aabb, shape.footprint, shape.front, shape.outline):
+            a.flags.writeable = False
+        out.append(shape)
+    return tuple(out)
+
+
+def view_facts(scene: Scene, view: View, shapes: tuple[PosedShape, ...] | None = None) -> ViewFacts:
+    """The facts of one view; ``shapes`` are the scene's ``posed_shapes`` when the caller has them
+    (a scene's views share them)."""
     R = view.T_world_cam[:3, :3]
     right, forward = _horizontal(R[:, 0]), _horizontal(R[:, 2])
-    counts = np.bincount(view.seg.ravel() + 1, minlength=len(scene.objects) + 1)[1:]
     min_px = max(MIN_VISIBLE_PX, VISIBLE_SHARE_OF_IMAGE * view.seg.size)
     boxes = object_boxes(view.seg)
-    objects = [_object_facts(o, view, right, forward, int(counts[o.object_id]), min_px, boxes) for o in scene.objects]
+    shapes = posed_shapes(scene) if shapes is None else shapes
+    pixels = {}
+    objects = [_object_facts(o, s, view, right, forward, min_px, boxes, pixels) for o, s in zip(scene.objects, shapes)]
     objects = _with_supports(objects, surfaces(scene.table.top_z_m, scene.table.levels_m),
                              np.array(scene.table.size_m))
     return ViewFacts(tuple(objects), right, forward, view.seg, view.depth_m, view.K, view.T_world_cam,
                      tuple(scene.table.size_m), scene.table.top_z_m, tuple(scene.table.levels_m),
-                     frozenset(scene.contacts), table_surface=scene.table.surface, cache={BOXES_KEY: boxes})
+                     frozenset(scene.contacts), table_surface=scene.table.surface,
+                     cache={BOXES_KEY: boxes, PIXELS_KEY: pixels})
 
 
 def surfaces(top_z: float, levels: tuple[float, ...]) -> dict[int, float]:
@@ -228,27 +259,26 @@ def surfaces(top_z: float, levels: tuple[float, ...]) -> dict[int, float]:
     return {TABLE: top_z, **{-(k + 2): top_z + h for k, h in enumerate(levels)}}
 
 
-def _object_facts(obj: PlacedObject, view: View, right, forward, px: int, min_px: float, boxes) -> ObjectFacts:
-    T = obj.pose.matrix()
+def _object_facts(obj: PlacedObject, shape: PosedShape, view: View, right, forward, min_px: float, boxes,
+                  pixels: dict) -> ObjectFacts:
     asset = obj.asset
-    verts = asset.visual.vertices_m @ T[:3, :3].T + T[:3, 3]
-    aabb = np.stack([verts.min(0), verts.max(0)])
-    centre = aabb.mean(0)
-    rows, cols, _ = object_pixels(view.seg, boxes, obj.object_id)
-    depth = float(np.median(view.depth_m[rows, cols])) if px else float("inf")
-    share = min(1.0, px / max(_silhouette_px(verts, asset.visual.faces, view), 1))
-    seen_whole = px >= min_px and share >= MIN_VISIBLE_SHARE and \
-        min(np.ptp(rows), np.ptp(cols)) + 1 >= MIN_VISIBLE_SPAN_PX
+    centre = shape.aabb.mean(0)
+    stats = pixel_stats(view.seg, view.depth_m, boxes, obj.object_id, view.rgb)
+    pixels[obj.object_id] = stats
+    px = stats.count
+    # Nothing seen: the share is 0 whatever the silhouette, which then need not be drawn.
+    share = min(1.0, px / max(_silhouette_px(shape.verts, asset.visual.faces, view), 1)) if px else 0.0
+    box = box_of(boxes, obj.object_id)  # the mask's bounding box: its span both ways
+    seen_whole = px >= min_px and share >= MIN_VISIBLE_SHARE and box is not None and \
+        min(box[0].stop - box[0].start, box[1].stop - box[1].start) >= MIN_VISIBLE_SPAN_PX
     status = "visible" if seen_whole else ("marginal" if px else "hidden")
     return ObjectFacts(
-        obj.object_id, asset.category, asset.name, asset.color, aabb, float(centre @ right),
-        float(centre @ forward), depth, px, status,
-        footprint_world=_footprint(asset, T), front_world=T[:3, :3] @ np.asarray(asset.front_local),
-        outline_world=_outline(verts),
-        front_side=asset.front_side, volume_m3=asset.visual.volume_m3,
-        centroid_px=(float(cols.mean() + 0.5), float(rows.mean() + 0.5)) if px else None,
-        visible_share=share, cavity=asset.cavity, is_support=asset.support, pose_world=T,
-        lab=mean_lab(view.rgb[rows, cols]),
+        obj.object_id, asset.category, asset.name, asset.color, shape.aabb, float(centre @ right),
+        float(centre @ forward), stats.depth_m, px, status,
+        footprint_world=shape.footprint, front_world=shape.front, outline_world=shape.outline,
+        front_side=asset.front_side, volume_m3=asset.visual.volume_m3, centroid_px=stats.centroid_px,
+        visible_share=share, cavity=asset.cavity, is_support=asset.support, pose_world=shape.pose,
+        lab=stats.lab,
     )
 
 

@@ -33,7 +33,7 @@ from scipy.spatial import ConvexHull
 
 from ..scene import LEG_HALF_M, LEG_INSET_M
 from .facts import TABLE, ObjectFacts, ViewFacts
-from .geometry import inside_convex, project
+from .geometry import inside_convex, inside_convex_grid, project
 from .registry import predicate
 
 CELL_M = 0.01
@@ -205,11 +205,16 @@ def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> tuple[np.ndarray, n
     return first, np.maximum(last, first - 1)  # an empty box has last = first - 1
 
 
-def _cell_centres(first: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """Centres of counts = (nx, ny) lattice cells from cell index ``first``, row by row (y)."""
+def _cell_axes(first: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """x and y coordinates of the centres of counts = (nx, ny) lattice cells from cell index ``first``."""
     xs = (np.arange(first[0], first[0] + counts[0]) + 0.5) * CELL_M
     ys = (np.arange(first[1], first[1] + counts[1]) + 0.5) * CELL_M
-    return np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    return xs, ys
+
+
+def _cell_centres(first: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Centres of counts = (nx, ny) lattice cells from cell index ``first``, row by row (y)."""
+    return np.stack(np.meshgrid(*_cell_axes(first, counts)), axis=-1).reshape(-1, 2)
 
 
 def _sector_box(centre: np.ndarray, axis: np.ndarray, r: float) -> np.ndarray:
@@ -280,7 +285,7 @@ class _Raster:
         self.first = np.floor(polygon.min(0) / CELL_M).astype(int)
         last = np.floor(polygon.max(0) / CELL_M).astype(int)
         shape = (last - self.first + 1)[::-1]  # rows follow y, columns x
-        self.free = inside_convex(_cell_centres(self.first, shape[::-1]), polygon, grow=-EDGE_MARGIN_M).reshape(shape)
+        self.free = inside_convex_grid(*_cell_axes(self.first, shape[::-1]), polygon, grow=-EDGE_MARGIN_M)
         for o in _obstacles(v, support, z):
             a = np.maximum(np.floor((o.footprint_world.min(0) - CLEARANCE_M) / CELL_M).astype(int), self.first)
             b = np.minimum(np.floor((o.footprint_world.max(0) + CLEARANCE_M) / CELL_M).astype(int), last)

@@ -8,8 +8,13 @@ stays inside it. Results equal the whole-frame versions, in the same (row-major)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import cv2
 import numpy as np
 from scipy import ndimage
+
+from ..colour import lab_of_mean
 
 Box = tuple[slice, slice]
 
@@ -20,6 +25,7 @@ def object_boxes(seg: np.ndarray) -> list[Box | None]:
 
 
 BOXES_KEY = ("boxes",)  # where a ViewFacts' cache keeps its segmentation's object boxes
+PIXELS_KEY = ("pixel_stats",)  # and the PixelStats of its objects (object id -> PixelStats)
 
 
 def cached_boxes(view) -> list[Box | None]:
@@ -33,16 +39,42 @@ def box_of(boxes: list[Box | None], object_id: int) -> Box | None:
     return boxes[object_id] if 0 <= object_id < len(boxes) else None
 
 
-def object_pixels(seg: np.ndarray, boxes: list[Box | None], object_id: int) -> tuple[np.ndarray, np.ndarray, Box | None]:
-    """(rows, cols) of the object's pixels in frame coordinates, and its box."""
-    box = box_of(boxes, object_id)
-    if box is None:
-        empty = np.zeros(0, dtype=np.intp)
-        return empty, empty, None
-    rows, cols = np.nonzero(seg[box] == object_id)
-    return rows + box[0].start, cols + box[1].start, box
-
-
 def padded(box: Box, pad: int, shape: tuple[int, int]) -> Box:
     """The box grown by ``pad`` pixels on every side, clipped to the frame."""
     return tuple(slice(max(s.start - pad, 0), min(s.stop + pad, n)) for s, n in zip(box, shape))  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class PixelStats:
+    """What an object's visible pixels say: how many, their median depth, their centroid and
+    mean colour. The record's facts and the facts rebuilt from it both need the first three
+    from the same segmentation and depth, so they are found once per view."""
+
+    count: int
+    depth_m: float  # median camera depth, inf when unseen
+    centroid_px: tuple[float, float] | None  # (column, row), pixel centres at +0.5
+    lab: tuple[float, float, float] | None  # None unless colours were given
+
+
+def pixel_stats(seg: np.ndarray, depth_m: np.ndarray, boxes: list[Box | None], object_id: int,
+                rgb: np.ndarray | None = None) -> PixelStats:
+    """The object's PixelStats, from a boolean mask of its box.
+
+    Sums instead of gathered pixels where the result is the same: numpy's mean of integers sums
+    them exactly in float64 and divides once by the count, so an exact integer sum divided by
+    the count gives the same bits (centroids from per-row and per-column counts, the mean
+    colour from OpenCV's masked sum), at a tenth of the cost. The median needs the depths."""
+    box = box_of(boxes, object_id)
+    if box is None:
+        return PixelStats(0, float("inf"), None, None)
+    mask = seg[box] == object_id
+    per_row, per_col = mask.sum(axis=1), mask.sum(axis=0)
+    count = int(per_row.sum())
+    row_sum = int(per_row @ np.arange(box[0].start, box[0].stop))
+    col_sum = int(per_col @ np.arange(box[1].start, box[1].stop))
+    centroid = (float(np.float64(col_sum) / count + 0.5), float(np.float64(row_sum) / count + 0.5))
+    lab = None
+    if rgb is not None:
+        channel_sums = cv2.sumElems(cv2.copyTo(rgb[box], mask.view(np.uint8)))[:3]
+        lab = lab_of_mean(np.array(channel_sums) / count)
+    return PixelStats(count, float(np.median(depth_m[box][mask])), centroid, lab)

@@ -8,7 +8,7 @@ import numpy as np
 from .facts import ObjectFacts, ViewFacts
 from .geometry import project, widths
 from .registry import Quantity, Verdict, compare, predicate
-from .vertical import containment
+from .vertical import contained
 
 # A clear margin: a person comparing two heights or widths by eye calls 20 % (or 2 cm) a
 # difference worth a word; closer than that is a near-tie, never asked.
@@ -135,7 +135,7 @@ def near(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     (shelf boards) the gap includes the height between their boxes. Undecided when one
     rests on or in the other: a bottle in a basket is in it, not "close to" it.
     """
-    if v.stacked(a, b) or containment(a, b) is not False or containment(b, a) is not False:
+    if v.stacked(a, b) or contained(v, a, b) is not False or contained(v, b, a) is not False:
         return None
     gap, scale = _gap_and_scale(v, a, b)
     if gap <= max(NEAR_GAP[0], NEAR_GAP[1] * scale):

@@ -6,7 +6,7 @@ import numpy as np
 
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .registry import Verdict, predicate
-from .vertical import containment
+from .vertical import contained
 
 FACING_DEG = 45.0  # within this of B's front: on its facing side (or back side, mirrored)
 # A person reads "on the side facing away from the lamp's shade" as the whole half-plane behind
@@ -77,7 +77,7 @@ def _edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
     and for a thing in a container: a person judges the basket at the edge, not the jar in it."""
     if a.support != TABLE or not v.table_size_m[0] or v.table_surface == "floor" or v.table_levels_m:
         return None
-    if any(o.object_id != a.object_id and containment(a, o) is not False for o in v.objects):
+    if any(o.object_id != a.object_id and contained(v, a, o) is not False for o in v.objects):
         return None
     half = np.asarray(v.table_size_m) / 2
     corners = a.footprint_world

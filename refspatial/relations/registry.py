@@ -40,8 +40,12 @@ class Predicate:
         if options:
             self._check(objects)
             return None if len({o.object_id for o in objects}) != len(objects) else self.fn(view, *objects, **options)
-        # The memo is looked up first: question search asks ~10^5 verdicts per scene, most of them again.
-        key = (self.name, *[o.object_id for o in objects])
+        # The memo is looked up first: question search asks ~10^5 verdicts per scene, most of them again
+        # (the key is spelt out for the usual arities: building it is most of a hit's cost).
+        if len(objects) == 2:
+            key = (self.name, objects[0].object_id, objects[1].object_id)
+        else:
+            key = (self.name, *[o.object_id for o in objects])
         try:
             return view.cache[key]
         except KeyError:

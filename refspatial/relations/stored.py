@@ -12,13 +12,19 @@ import numpy as np
 
 from ..scene import Cavity, PlacedObject, quat_to_matrix
 from .facts import ObjectFacts, ViewFacts, _horizontal
-from .masks import BOXES_KEY, object_boxes, object_pixels
+from .masks import BOXES_KEY, PIXELS_KEY, PixelStats, object_boxes, pixel_stats
 
 DIGITS = 6  # micrometres and micro-units: far below every threshold
 
 
 def rounded(values, digits: int = DIGITS) -> list[float]:
     return [round(float(v), digits) for v in np.asarray(values, dtype=float).ravel()]
+
+
+def rounded_rows(rows, digits: int = DIGITS) -> list[list[float]]:
+    """``[rounded(r) for r in rows]`` of a 2-D array in one conversion (an outline has dozens of
+    corners; ``tolist`` gives the same Python floats as ``float`` of each element)."""
+    return [[round(v, digits) for v in row] for row in np.asarray(rows, dtype=float).tolist()]
 
 
 def object_record(obj: PlacedObject, facts: ObjectFacts) -> dict:
@@ -42,8 +48,8 @@ def object_record(obj: PlacedObject, facts: ObjectFacts) -> dict:
         "box_world": {"center_m": rounded(R @ ((lo + hi) / 2) + obj.pose.pos_world_m), "size_m": rounded(hi - lo),
                       "quat_wxyz": rounded(obj.pose.quat_wxyz)},
         "aabb_world_m": [rounded(facts.aabb_world_m[0]), rounded(facts.aabb_world_m[1])],
-        "footprint_world_m": [rounded(c) for c in facts.footprint_world],
-        "outline_world_m": [rounded(c) for c in facts.outline_world] if facts.outline_world is not None else None,
+        "footprint_world_m": rounded_rows(facts.footprint_world),
+        "outline_world_m": rounded_rows(facts.outline_world) if facts.outline_world is not None else None,
         "front_world": rounded(facts.front_world),
         "front_side": a.front_side,
         "volume_m3": round(facts.volume_m3, 9),
@@ -59,13 +65,17 @@ def object_record(obj: PlacedObject, facts: ObjectFacts) -> dict:
 
 
 def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.ndarray,
-                      T_world_cam: np.ndarray, boxes: list | None = None) -> ViewFacts:
+                      T_world_cam: np.ndarray, boxes: list | None = None,
+                      pixels: dict[int, PixelStats] | None = None) -> ViewFacts:
     """The view facts of a record, from its scene JSON and its depth and segmentation arrays
-    (and the segmentation's ``object_boxes``, when the caller has them already)."""
+    (and the segmentation's ``object_boxes`` and objects' ``pixel_stats``, when the caller has
+    them already: the unrounded facts of the same view found them from the same arrays)."""
     K, T = np.asarray(K, dtype=float), np.asarray(T_world_cam, dtype=float)
     right, forward = _horizontal(T[:3, 0]), _horizontal(T[:3, 2])
     boxes = object_boxes(seg) if boxes is None else boxes
-    objects = tuple(_object_facts(o, seg, depth_m, right, forward, boxes) for o in scene["objects"])
+    pixels = {} if pixels is None else pixels
+    objects = tuple(_object_facts(o, pixels[o["id"]] if o["id"] in pixels else pixel_stats(seg, depth_m, boxes, o["id"]),
+                                  right, forward) for o in scene["objects"])
     contacts = frozenset(tuple(p) for p in scene.get("contacts", []))
     table = scene["table"]
     levels = tuple(table.get("levels_m", ()))
@@ -73,22 +83,20 @@ def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.n
                      levels, contacts, table_surface=table.get("surface", "table"), cache={BOXES_KEY: boxes})
 
 
-def _object_facts(o: dict, seg: np.ndarray, depth_m: np.ndarray, right, forward, boxes) -> ObjectFacts:
+def _object_facts(o: dict, stats: PixelStats, right, forward) -> ObjectFacts:
     aabb = np.array(o["aabb_world_m"], dtype=float)
     centre = aabb.mean(0)
-    rows, cols, _ = object_pixels(seg, boxes, o["id"])
-    px = len(rows)
     pose = np.eye(4)
     pose[:3, :3] = quat_to_matrix(o["pose"]["quat_wxyz"])
     pose[:3, 3] = o["pose"]["pos_world_m"]
     cav = o.get("cavity")
     return ObjectFacts(
         o["id"], o["category"], o["name"], o["color"], aabb, float(centre @ right), float(centre @ forward),
-        float(np.median(depth_m[rows, cols])) if px else float("inf"), px, o["visibility"],
+        stats.depth_m, stats.count, o["visibility"],
         footprint_world=np.array(o["footprint_world_m"], dtype=float), front_world=np.array(o["front_world"]),
         outline_world=np.array(o["outline_world_m"], dtype=float) if o.get("outline_world_m") else None,
         front_side=o["front_side"], volume_m3=o["volume_m3"],
-        centroid_px=(float(cols.mean() + 0.5), float(rows.mean() + 0.5)) if px else None,
+        centroid_px=stats.centroid_px,
         visible_share=o["visible_share"], support=o["support"], is_support=o["is_support"], pose_world=pose,
         lab=tuple(o["rendered_lab"]) if o.get("rendered_lab") is not None else None,
         cavity=None if cav is None else Cavity(cav["shape"], tuple(cav["half_extents_m"]), cav["floor_z_m"],

@@ -79,6 +79,15 @@ def containment(a: ObjectFacts, container: ObjectFacts) -> Verdict:
     return None
 
 
+def contained(v: ViewFacts, a: ObjectFacts, container: ObjectFacts) -> Verdict:
+    """``containment`` memoised per view (keyed by the facts themselves): near, between and the
+    edge test ask it of the same pairs thousands of times per scene."""
+    key = ("containment", a, container)
+    if key not in v.cache:
+        v.cache[key] = containment(a, container)
+    return v.cache[key]
+
+
 @predicate("inside", family="inside_outside", arity=2, frame="object", inverse=None)
 def inside(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A lies inside container B's cavity (bowl, cup, mug, basket, box...). See ``containment``.
@@ -87,7 +96,7 @@ def inside(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """
     if b.cavity is None:
         return None
-    return containment(a, b)
+    return contained(v, a, b)
 
 
 @predicate("outside", family="inside_outside", arity=2, frame="object", inverse=None)
