@@ -385,3 +385,18 @@ def test_in_front_of_needs_more_depth_than_offset_by_either_centre():
     assert PREDICATES["in_front_of"](view(near, far), near, far) is True
     shifted = dataclasses.replace(far, footprint_world=far.footprint_world + np.array([0.06, 0.0]))
     assert PREDICATES["in_front_of"](view(near, shifted), near, shifted) is None
+
+
+def test_nothing_is_outside_a_container_it_could_never_go_in():
+    """"The tray outside the cup" rules nothing out (annotator); a lemon beside a bowl is outside it."""
+    from refspatial.scene import Cavity
+
+    cup = _facts({"id": 0, "category": "cup", "at": [0.0, 0.2, 0.0], "size": [0.08, 0.08, 0.1]})
+    cup = dataclasses.replace(cup, cavity=Cavity("cylinder", (0.035, 0.035), 0.01, 0.1))
+    tray = _facts({"id": 1, "category": "tray", "at": [0.3, 0.0, 0.0], "size": [0.4, 0.3, 0.03]})
+    lemon = _facts({"id": 2, "category": "lemon", "at": [-0.3, 0.0, 0.0], "size": [0.06, 0.05, 0.05]})
+    bowl = dataclasses.replace(_facts({"id": 3, "category": "bowl", "at": [0.0, 0.5, 0.0], "size": [0.16, 0.16, 0.07]}),
+                               cavity=Cavity("cylinder", (0.07, 0.07), 0.01, 0.07))
+    v = view(cup, tray, lemon, bowl)
+    assert PREDICATES["outside"](v, tray, cup) is None
+    assert PREDICATES["outside"](v, lemon, bowl) is True

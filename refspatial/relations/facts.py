@@ -25,9 +25,10 @@ from .masks import BOXES_KEY, PIXELS_KEY, box_of, object_boxes, pixel_stats
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
 MIN_VISIBLE_PX = 20
 MIN_VISIBLE_SHARE = 0.4  # an object less visible than this (of its silhouette) is too occluded to ask about
-# A book lying flat under a can, seen edge-on as a strip 6 px tall (594 px in all), does not read
-# as a book (annotator): what is asked about must span this many pixels both ways.
-MIN_VISIBLE_SPAN_PX = 10
+# A book lying flat under a can, seen edge-on as a strip 6 px tall (594 px in all) of a 540 px
+# image, does not read as a book (annotator): what is asked about must span this share of the
+# image's height both ways (10 px at 960x540; relative, as VISIBLE_SHARE_OF_IMAGE is).
+MIN_VISIBLE_SPAN_SHARE = 0.0185
 SUPPORT_GAP_M = 0.05  # RefSpatial: a platform top within 5 cm of an object's bottom...
 SUPPORT_COVER = 0.7  # ...covering >= 70 % of its footprint supports it
 TABLE = -1  # support id of the table
@@ -270,7 +271,7 @@ def _object_facts(obj: PlacedObject, shape: PosedShape, view: View, right, forwa
     share = min(1.0, px / max(_silhouette_px(shape.verts, asset.visual.faces, view), 1)) if px else 0.0
     box = box_of(boxes, obj.object_id)  # the mask's bounding box: its span both ways
     seen_whole = px >= min_px and share >= MIN_VISIBLE_SHARE and box is not None and \
-        min(box[0].stop - box[0].start, box[1].stop - box[1].start) >= MIN_VISIBLE_SPAN_PX
+        min(box[0].stop - box[0].start, box[1].stop - box[1].start) >= MIN_VISIBLE_SPAN_SHARE * view.seg.shape[0]
     status = "visible" if seen_whole else ("marginal" if px else "hidden")
     return ObjectFacts(
         obj.object_id, asset.category, asset.name, asset.color, shape.aabb, float(centre @ right),

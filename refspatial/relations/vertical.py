@@ -101,6 +101,21 @@ def inside(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 @predicate("outside", family="inside_outside", arity=2, frame="object", inverse=None)
 def outside(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
-    """A is outside container B: the negation of ``inside`` with the same undecided band."""
+    """A is outside container B: the negation of ``inside`` with the same undecided band, and
+    undecided for a thing that could never go in (its footprint wider than the opening): "the
+    tray outside the cup" rules nothing out and reads as a riddle (annotator)."""
     verdict = inside(v, a, b)
-    return None if verdict is None else not verdict
+    if verdict is None or (not verdict and not _could_go_in(a, b.cavity)):
+        return None
+    return not verdict
+
+
+def _could_go_in(a: ObjectFacts, cav) -> bool:
+    """A's footprint, side by side, is no larger than the container's opening."""
+    if a.footprint_world is None:
+        return True
+    c = a.footprint_world
+    sides = sorted((float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1]))))
+    hx, hy = cav.half_extents_m
+    opening = sorted((2 * hx, 2 * hx) if cav.shape == "cylinder" else (2 * hx, 2 * hy))
+    return sides[0] <= opening[0] and sides[1] <= opening[1]
