@@ -400,3 +400,14 @@ def test_nothing_is_outside_a_container_it_could_never_go_in():
     v = view(cup, tray, lemon, bowl)
     assert PREDICATES["outside"](v, tray, cup) is None
     assert PREDICATES["outside"](v, lemon, bowl) is True
+
+
+def test_between_holds_by_either_centre():
+    """A pen holder whose oriented footprint's centre lies 3 cm further off the anchors' line than
+    its mesh box's centre: a strict reader may take either, so it is between only if both agree."""
+    left = _facts({"id": 0, "category": "pen_holder", "at": [-0.15, 0.2, 0.0], "size": [0.1, 0.1, 0.14]})
+    right = _facts({"id": 1, "category": "scissors", "at": [0.15, 0.2, 0.0], "size": [0.18, 0.07, 0.01]})
+    middle = _facts({"id": 2, "category": "pen_holder", "at": [0.0, 0.24, 0.0], "size": [0.1, 0.1, 0.14]})
+    assert PREDICATES["between"](view(left, right, middle), middle, left, right) is True
+    shifted = dataclasses.replace(middle, footprint_world=middle.footprint_world + np.array([0.0, 0.03]))
+    assert PREDICATES["between"](view(left, right, shifted), shifted, left, right) is None
