@@ -6,7 +6,8 @@ on the target's visible mask (placement points on the stored free-region mask,
 which must equal the recomputed one); choice letters, counts and quantities agree
 with the program's value; every reasoning step's point, vector or size matches; the
 wording rules hold (camera moves only between views a person can compare, a named side
-only where it faces the camera, "outside" only of a container that holds something).
+only where it faces the camera, "outside" only of a container that holds something,
+marked boxes that do not nest).
 Per shard: the checksum matches the manifest. Nothing is trusted that can be
 recomputed from the record itself.
 """
@@ -26,6 +27,7 @@ from .questions.multiview import camera_move_askable
 from .questions.program import ProgramError, count_steps, execute, is_degenerate
 from .questions.refer import holds_anything
 from .questions.sides import SIDE_PREDICATES, side_visible
+from .questions.visual import marks_apart
 from .records import ShardError, ShardReader, sha256_file
 from .relations import ViewFacts
 from .relations.stored import facts_from_record
@@ -150,6 +152,9 @@ def _check_wording(qa: dict, program: list[dict], values: list, views: dict[str,
             out.append(f"names the {anchor.front_side} of object {anchor.object_id}, which does not face the camera")
         if n["predicate"] == "outside" and not holds_anything(view, anchor):
             out.append(f"'outside' object {anchor.object_id}, which holds nothing")
+    boxes = [m["box_px"] for m in qa.get("marks") or ()]
+    if any(not marks_apart(a, b) for k, a in enumerate(boxes) for b in boxes[k + 1:]):
+        out.append("two marked boxes overlap or one holds most of another")
     return out
 
 

@@ -411,3 +411,13 @@ def test_between_holds_by_either_centre():
     assert PREDICATES["between"](view(left, right, middle), middle, left, right) is True
     shifted = dataclasses.replace(middle, footprint_world=middle.footprint_world + np.array([0.0, 0.03]))
     assert PREDICATES["between"](view(left, right, shifted), shifted, left, right) is None
+
+
+def test_no_mark_holds_most_of_another():
+    """A sponge lying in a basket: its box lies inside the basket's, so "which box contains the
+    sponge?" fits both (annotator). Such marks are never offered together; side by side they are."""
+    from refspatial.questions.visual import marks_apart
+
+    basket, sponge, mug = [394, 224, 481, 299], [407, 248, 453, 274], [520, 230, 580, 300]
+    assert not marks_apart(basket, sponge) and not marks_apart(sponge, basket)
+    assert marks_apart(basket, mug)

@@ -18,6 +18,9 @@ from .phrases import Phrasebook
 from .program import execute
 
 MAX_IOU = 0.3  # boxes overlapping more than this would make the marks themselves ambiguous
+# ...and a box holding most of another's would too: "which box contains the sponge?" fits both the
+# sponge's box and the box around the basket it lies in (annotator).
+MAX_COVER = 0.5
 LABELS = "ABCD"
 
 
@@ -33,7 +36,7 @@ def visual_choice(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.r
     for o in order:
         if len(chosen) == limit:
             break
-        if all(_iou(_box(view, o.object_id), _box(view, c.object_id)) < MAX_IOU for c in chosen):
+        if all(marks_apart(_box(view, o.object_id), _box(view, c.object_id)) for c in chosen):
             chosen.append(o)
     if len(chosen) < 3:
         return None
@@ -62,6 +65,18 @@ def _box(view: ViewFacts, object_id: int) -> list[int]:
     pad = max(1, round(min(view.width, view.height) / 180))
     return [max(0, cols.start - pad), max(0, rows.start - pad),
             min(view.width - 1, cols.stop - 1 + pad), min(view.height - 1, rows.stop - 1 + pad)]
+
+
+def marks_apart(a: list[int], b: list[int]) -> bool:
+    """Two marks a reader cannot confuse: little overlap, and neither mostly inside the other."""
+    return _iou(a, b) < MAX_IOU and _cover(a, b) < MAX_COVER
+
+
+def _cover(a: list[int], b: list[int]) -> float:
+    """The share of the smaller box that the other one covers."""
+    inter = max(0, min(a[2], b[2]) - max(a[0], b[0])) * max(0, min(a[3], b[3]) - max(a[1], b[1]))
+    smaller = min((a[2] - a[0]) * (a[3] - a[1]), (b[2] - b[0]) * (b[3] - b[1]))
+    return inter / smaller if smaller else 0.0
 
 
 def _iou(a: list[int], b: list[int]) -> float:
