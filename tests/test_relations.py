@@ -330,3 +330,13 @@ def test_clip_convex_equals_clipping_corner_by_corner():
         for s, c in ((a, b), (b, a), (a, a), (a, a[::-1])):
             got, want = clip_convex(s, c), _clip_edge_by_edge(s, c)
             assert got.shape == want.shape and np.array_equal(got, want)
+
+
+def test_closer_to_the_camera_is_antisymmetric_for_intervals_sharing_an_end():
+    """Two things whose depth intervals share their near end to the last ulp (found by the
+    property test above): "closer" is decided the same way whichever is asked first."""
+    a = obj(0, "mug", "red", 0.5, -0.5, size=0.25, height=0.25)
+    b = obj(1, "cup", "blue", 0.0, -0.5, size=0.25, height=0.375)
+    v = view(a, b)
+    ab, ba = PREDICATES["closer_to_camera"](v, a, b), PREDICATES["closer_to_camera"](v, b, a)
+    assert (ab is None) == (ba is None) and (ab is None or ba == (not ab))

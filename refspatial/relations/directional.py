@@ -131,7 +131,7 @@ def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
         return None
     (a_lo, a_hi) = a.interval_along(v.forward_axis, a.forward_m)
     (b_lo, b_hi) = b.interval_along(v.forward_axis, b.forward_m)
-    if (a_lo < b_lo) != (a_hi < b_hi):
+    if _spans((a_lo, a_hi), (b_lo, b_hi)):
         return None
     surface = nearer(a.depth_m, b.depth_m)
     ca, cb = v.centre_in_camera(a), v.centre_in_camera(b)
@@ -189,6 +189,15 @@ def _in_corridor_by_footprints(a: ObjectFacts, b: ObjectFacts, c: ObjectFacts, h
         return True
     t, d, length = _along_and_off(*(o.footprint_world.mean(0) for o in (a, b, c)))
     return BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= min(half_width, BETWEEN_LATERAL_SHARE * length)
+
+
+def _spans(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Neither interval is ahead of the other at both ends (ties count as ahead, both ways, so
+    the answer is the same whichever comes first: intervals sharing an end to the last ulp made
+    "closer" False one way round and undecided the other)."""
+    a_first = a[0] <= b[0] and a[1] <= b[1]
+    b_first = b[0] <= a[0] and b[1] <= a[1]
+    return not (a_first or b_first)
 
 
 def _along_and_off(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> tuple[float, float, float]:
