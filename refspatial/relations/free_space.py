@@ -34,6 +34,7 @@ from scipy.spatial import ConvexHull
 from ..scene import LEG_HALF_M, LEG_INSET_M
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import inside_convex, inside_convex_grid, project
+from .masks import box_of, cached_boxes, padded
 from .registry import predicate
 
 CELL_M = 0.01
@@ -334,11 +335,52 @@ def _obstacles(v: ViewFacts, support: int, z: float) -> list[ObjectFacts]:
 def image_clearance(v: ViewFacts, support: int) -> np.ndarray:
     """Bool (H, W): pixels at least IMAGE_CLEARANCE of the image width from every object's pixels,
     the platform's own excepted (memoised per view and platform)."""
-    key = ("image_clearance", support)
+    # The table top and every shelf board exclude no object's pixels: one mask serves them all.
+    key = ("image_clearance", support if support >= 0 else TABLE)
     if key not in v.cache:
-        objects = (v.seg >= 0) & (v.seg != support)
-        v.cache[key] = _far_from(objects, IMAGE_CLEARANCE * v.width)
+        v.cache[key] = _clearance(v, support)
     return v.cache[key]
+
+
+def _clearance(v: ViewFacts, support: int) -> np.ndarray:
+    radius = IMAGE_CLEARANCE * v.width
+    boxes = cached_boxes(v)
+    own = box_of(boxes, support)
+    others = any(b is not None for i, b in enumerate(boxes) if i != support)
+    if support < 0 or own is None or not others:  # no shortcut: the whole frame as it always was
+        return _far_from((v.seg >= 0) & (v.seg != support), radius)
+    # An object platform's mask differs from every object's (the TABLE mask) only within the
+    # clearance radius of the platform's own pixels: there the transform of the other objects'
+    # pixels is taken again, over that box grown once more by the radius, which holds every
+    # pixel close enough to matter (pixels further than the radius never make one near).
+    reach = _reach_px(radius) + 1
+    inner = padded(own, reach, v.seg.shape)
+    outer = padded(inner, reach, v.seg.shape)
+    window = v.seg[outer]
+    pixels = (window >= 0) & (window != support)
+    out = image_clearance(v, TABLE).copy()
+    if not pixels.any():  # nothing else near the platform's pixels: all of it is far
+        out[inner] = True
+        return out
+    near = _far_from(pixels, radius)
+    out[inner] = near[inner[0].start - outer[0].start:inner[0].stop - outer[0].start,
+                      inner[1].start - outer[1].start:inner[1].stop - outer[1].start]
+    return out
+
+
+def _reach_px(radius_px: float) -> int:
+    """A feature pixel more than this many pixels away in either axis is never near."""
+    return math.isqrt(_far_square(radius_px))
+
+
+def _far_square(radius_px: float) -> int:
+    """The smallest whole squared distance n with sqrt(n) >= radius_px."""
+    n = math.ceil(radius_px * radius_px)  # the smallest squared distance that is far enough
+    while n > 0 and math.sqrt(n - 1) >= radius_px:
+        n -= 1
+    while math.sqrt(n) < radius_px:
+        n += 1
+    return n
 
 
 def _far_from(pixels: np.ndarray, radius_px: float) -> np.ndarray:
@@ -348,11 +390,7 @@ def _far_from(pixels: np.ndarray, radius_px: float) -> np.ndarray:
     nearest possible distances (square roots of whole numbers) so rounding never flips a pixel."""
     if not pixels.any():  # scipy's answer for an image with no feature pixel, kept as it was
         return distance_transform_edt(~pixels) >= radius_px
-    n = math.ceil(radius_px * radius_px)  # the smallest squared distance that is far enough
-    while n > 0 and math.sqrt(n - 1) >= radius_px:
-        n -= 1
-    while math.sqrt(n) < radius_px:
-        n += 1
+    n = _far_square(radius_px)  # the smallest squared distance that is far enough
     if n == 0:
         return np.ones(pixels.shape, bool)
     # Pixels beyond the radius from the box around every True pixel are far; inside the box
