@@ -463,7 +463,7 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
     ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1] - s) <= OCCLUSION_M)
     rows, cols = np.nonzero(ok)
     depth, uc, wr = s[rows, cols], u[cols], w[rows]
-    x, y = (t[k] + (uc * M[k, 0] + wr * M[k, 1] + M[k, 2]) * depth for k in (0, 1))
+    x, y = (_on_plane(uc, wr, depth, M[k], t[k]) for k in (0, 1))
     ix, iy = np.floor(x / CELL_M).astype(int) - lo[0], np.floor(y / CELL_M).astype(int) - lo[1]
     on = (ix >= 0) & (ix < codes.shape[1]) & (iy >= 0) & (iy < codes.shape[0])
     code = np.zeros(len(x), dtype=np.uint8)
@@ -472,6 +472,17 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
     keep[edge] = _in_regions(v, constraints, np.column_stack([x[edge], y[edge]]))
     mask[rows[keep] + r0, cols[keep] + c0] = True
     return mask
+
+
+def _on_plane(uc: np.ndarray, wr: np.ndarray, depth: np.ndarray, m: np.ndarray, t: float) -> np.ndarray:
+    """One world coordinate of pixel rays met at ``depth``: t + (uc * m[0] + wr * m[1] + m[2]) * depth,
+    the same operations in the same order, in place (sums and products commute exactly)."""
+    out = uc * m[0]
+    out += wr * m[1]
+    out += m[2]
+    out *= depth
+    out += t
+    return out
 
 
 WHOLE, EDGE = 1, 2  # cell codes; 0 is a cell that is not free or lies outside the region
