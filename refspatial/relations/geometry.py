@@ -125,9 +125,34 @@ def _separated(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.any((pa.max(0) < pb.min(0)) | (pb.max(0) < pa.min(0))))
 
 
+_SHARED: dict = {}  # results of the pure functions below, by their inputs' bytes
+_SHARED_MAX = 4096
+
+
+def _shared(key, compute):
+    """A pure function's result for inputs seen before: a scene's views ask the same world
+    geometry (the outlines are the scene's, not the view's), each view afresh."""
+    try:
+        return _SHARED[key]
+    except KeyError:
+        pass
+    if len(_SHARED) >= _SHARED_MAX:
+        _SHARED.clear()
+    value = _SHARED[key] = compute()
+    return value
+
+
+def _key(name: str, poly: np.ndarray) -> tuple:
+    return name, poly.shape, poly.dtype.str, poly.tobytes()
+
+
 def widths(poly: np.ndarray) -> tuple[float, float]:
     """A convex polygon's least width (its narrowest shadow over its own edge normals) and its
     longest span (the largest distance between two corners)."""
+    return _shared(_key("widths", poly), lambda: _widths(poly))
+
+
+def _widths(poly: np.ndarray) -> tuple[float, float]:
     edges = _next(poly) - poly
     lengths = np.linalg.norm(edges, axis=1)
     normals = np.column_stack([edges[:, 1], -edges[:, 0]])[lengths > 0] / lengths[lengths > 0, None]
@@ -138,6 +163,12 @@ def widths(poly: np.ndarray) -> tuple[float, float]:
 
 def gap_between(a: np.ndarray, b: np.ndarray) -> float:
     """Smallest distance between two convex polygons (0 when they overlap or touch)."""
+    # The same number either way round (each test and the minimum below are symmetric).
+    ka, kb = _key("gap", a), _key("gap", b)
+    return _shared((ka, kb) if ka <= kb else (kb, ka), lambda: _gap_between(a, b))
+
+
+def _gap_between(a: np.ndarray, b: np.ndarray) -> float:
     if boxes_meet(a, b) and not _separated(a, b):
         return 0.0
     best = np.inf
