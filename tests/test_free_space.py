@@ -64,6 +64,12 @@ def test_sector_answers_are_free_visible_and_in_their_sector(views):
                 assert _sector(v, c[0], near).any()
                 rel = world - a.center_world_m[:2]
                 assert rel @ direction_axis(v, d) > 0, "the point lies on the requested side"
+                # ...and squarely so: within the anchor's own width across the direction (1 cm for
+                # the snap), not in front of the thing beside it (annotator)
+                axis = direction_axis(v, d)
+                across = np.array([-axis[1], axis[0], 0.0])
+                lo, hi = a.interval_along(across, float(a.center_world_m[:2] @ across[:2]))
+                assert lo - 0.01 <= world @ across[:2] <= hi + 0.01, "the spot is beside the anchor's strip"
                 solved += 1
     assert solved >= 5
 

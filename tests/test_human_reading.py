@@ -421,3 +421,49 @@ def test_no_mark_holds_most_of_another():
     basket, sponge, mug = [394, 224, 481, 299], [407, 248, 453, 274], [520, 230, 580, 300]
     assert not marks_apart(basket, sponge) and not marks_apart(sponge, basket)
     assert marks_apart(basket, mug)
+
+
+def test_shorter_also_reads_as_less_long():
+    """An orange 8 cm tall against a 22 cm screwdriver lying flat (3 cm high): shorter by height,
+    longer by length; "is the orange shorter than the screwdriver?" reads both ways (annotator)."""
+    orange = _facts({"id": 0, "category": "orange", "at": [-0.2, 0.2, 0.0], "size": [0.08, 0.08, 0.078]})
+    screwdriver = _facts({"id": 1, "category": "screwdriver", "at": [0.2, 0.2, 0.0], "size": [0.22, 0.03, 0.028]})
+    assert PREDICATES["taller_than"](view(orange, screwdriver), orange, screwdriver) is None
+    mug = _facts({"id": 1, "category": "mug", "at": [0.2, 0.2, 0.0], "size": [0.08, 0.08, 0.03]})
+    assert PREDICATES["taller_than"](view(orange, mug), orange, mug) is True
+
+
+def test_left_of_needs_the_picture_to_agree():
+    """A stool 28 cm right of a plate but far behind it is drawn left of the plate's centre in the
+    picture: "the stool right of the plate" is not what a person sees (annotator)."""
+    plate = _facts({"id": 0, "category": "plate", "at": [0.0, 0.0, 0.0], "size": [0.2, 0.2, 0.02]})
+    stool = _facts({"id": 1, "category": "stool", "at": [0.3, 0.6, 0.0], "size": [0.1, 0.1, 0.3]})
+    assert PREDICATES["right_of"](view(plate, stool), stool, plate) is True
+    drawn_left = dataclasses.replace(stool, centroid_px=(plate.centroid_px[0] - 3.0, stool.centroid_px[1]))
+    assert PREDICATES["right_of"](view(plate, drawn_left), drawn_left, plate) is None
+
+
+def test_the_front_of_a_shelf_is_its_own_front_too():
+    """Seen 25 degrees off a shelf's axis, the bottle nearer the viewer may stand further from the
+    shelf's front edge: "the bottle nearest the front" then picks neither (annotator)."""
+    from helpers import T as T0
+
+    from refspatial.camera import look_rotation
+    from refspatial.questions.program import ProgramError, execute
+
+    T_off = T0.copy()
+    T_off[:3, :3] = look_rotation(np.radians(65), -np.radians(30)) @ np.diag([1.0, -1.0, -1.0])
+    right, forward = (np.r_[T_off[:2, k], 0.0] / np.linalg.norm(T_off[:2, k]) for k in (0, 2))
+
+    def seen_off_axis(o):  # _facts reads x and y as the default camera's right and forward
+        return dataclasses.replace(o, lateral_m=float(o.center_world_m @ right), forward_m=float(o.center_world_m @ forward))
+
+    back = seen_off_axis(_facts({"id": 0, "category": "bottle", "at": [0.0, 0.10, 0.0], "size": [0.05, 0.05, 0.2]}))
+    front = seen_off_axis(_facts({"id": 1, "category": "bottle", "at": [0.35, 0.0, 0.0], "size": [0.05, 0.05, 0.2]}))
+    nodes = [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": "bottle", "color": None},
+             {"op": "ordinal", "inputs": [1], "axis": "front_back", "end": "front", "rank": 1}]
+    table = view(back, front, T_world_cam=T_off)
+    assert execute(nodes, table)[-1] == 0  # a table has no front of its own: the viewer's decides
+    shelf = dataclasses.replace(table, table_levels_m=(0.38,))
+    with pytest.raises(ProgramError, match="shelf"):
+        execute(nodes, shelf)

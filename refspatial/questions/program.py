@@ -17,7 +17,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ..relations import PREDICATES, Quantity, ViewFacts
-from ..relations.directional import DEPTH_MARGIN_M
+from ..relations.directional import DEPTH_MARGIN_M, SHELF_INWARD
 from ..relations.masks import box_of, cached_boxes
 from ..relations.metric import centre_distance
 from ..relations.free_space import Constraint, solve
@@ -119,7 +119,26 @@ def _ordinal(view: ViewFacts, node: Node, ids: list[int]) -> int:
         _check_depth_order(view, order, rank)
     if node["axis"] == "left_right":
         _check_picture_order(view, order, rank, from_left=node["end"] == "left")
+    if node["axis"] == "front_back" and view.table_levels_m:
+        _check_shelf_front(view, order, rank, margin, from_front=node["end"] == "front")
     return order[rank - 1]
+
+
+def _check_shelf_front(view: ViewFacts, order: list[int], rank: int, margin: float, from_front: bool) -> None:
+    """"The bottle nearest the front" of a shelf seen 23 degrees off its axis reads as nearest the
+    shelf's own front edge as well as nearest the viewer (annotator): the rank must be the same,
+    with clearly apart neighbours, along the shelf's depth too."""
+    sign = 1.0 if from_front else -1.0
+    chosen = view.objects[order[rank - 1]]
+    for j in (rank - 2, rank):
+        if not 0 <= j < len(order):
+            continue
+        other = view.objects[order[j]]
+        later, earlier = (other, chosen) if j > rank - 1 else (chosen, other)
+        step = sign * float((later.center_world_m - earlier.center_world_m) @ SHELF_INWARD)
+        extents = chosen.extent_along(SHELF_INWARD) + other.extent_along(SHELF_INWARD)
+        if step <= max(margin, ORDINAL_SIZE_SHARE * extents / 2):
+            raise ProgramError("the shelf's own front ranks them otherwise")
 
 
 def _check_picture_order(view: ViewFacts, order: list[int], rank: int, from_left: bool) -> None:

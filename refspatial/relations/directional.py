@@ -25,6 +25,9 @@ CLEAR_GAP_ACROSS_LEVELS_M = 0.05
 # its mesh centre (the handle) disagree on which is more (strict audit, 2 mm the other way).
 FRONT_OVER_SIDE = 1.15
 DEPTH_MARGIN_M = 0.03
+# A shelf's open front faces the world's -y: the shelf recipe's cameras look along +y (yaw 65-115),
+# so up to 25 degrees off the shelf's own depth, and "in front" reads by either.
+SHELF_INWARD = np.array([0.0, 1.0, 0.0])
 DEPTH_MARGIN_REL = 0.05  # share of the nearer object's depth
 BETWEEN_MIN_GAP_M = 0.10  # anchors closer than this enclose no corridor worth naming
 BETWEEN_T = (0.2, 0.8)  # where along the anchor segment the subject must sit (fraction)
@@ -69,14 +72,31 @@ def nearer(a_m: float, b_m: float) -> Verdict:
 def left_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """The whole of A lies left of the whole of B along the viewer's right axis (ground-projected
     camera x): their extents on that axis are at least 1 cm apart (5 cm across shelf boards), and
-    neither rests on or in the other. False when the whole of A lies right of B; undecided otherwise."""
-    return clear_order(v, a, b, v.right_axis, a.lateral_m, b.lateral_m)
+    neither rests on or in the other; and the picture agrees: A's mask lies left of B's at both
+    its edges (a stool 28 cm right of a plate but 1.84 m behind it is drawn left of the plate's
+    centre: annotator). False when the whole of A lies right of B and the picture agrees;
+    undecided otherwise."""
+    verdict = clear_order(v, a, b, v.right_axis, a.lateral_m, b.lateral_m)
+    if verdict is None:
+        return None
+    first, second = (a, b) if verdict else (b, a)
+    return verdict if _shown_left(v, first, second) else None
+
+
+def _shown_left(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> bool:
+    """A's pixels lie left of B's in the picture: its left and its right columns both (an object
+    not seen is not contradicted by the picture)."""
+    boxes = cached_boxes(v)
+    ba, bb = box_of(boxes, a.object_id), box_of(boxes, b.object_id)
+    if ba is None or bb is None:
+        return True
+    return ba[1].start < bb[1].start and ba[1].stop < bb[1].stop
 
 
 @predicate("right_of", family="left_right", arity=2, frame="viewer", inverse="left_of")
 def right_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """The whole of A lies right of the whole of B along the viewer's right axis; as left_of."""
-    return clear_order(v, b, a, v.right_axis, b.lateral_m, a.lateral_m)
+    return left_of(v, b, a)
 
 
 @predicate("in_front_of", family="front_behind", arity=2, frame="viewer", inverse="behind")
@@ -89,7 +109,12 @@ def in_front_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     and 12 cm in depth stand side by side: annotator; two pans 33 cm apart both ways stand diagonally)."""
     if v.on_other_levels(a, b) or _side_by_side(v, a, b):
         return None
-    return clear_order(v, a, b, v.forward_axis, a.forward_m, b.forward_m)
+    verdict = clear_order(v, a, b, v.forward_axis, a.forward_m, b.forward_m)
+    if verdict is not None and v.table_levels_m:  # a shelf's own front reads "in front" too (annotator)
+        inward = SHELF_INWARD[:2]
+        own = clear_order(v, a, b, SHELF_INWARD, float(a.center_world_m[:2] @ inward), float(b.center_world_m[:2] @ inward))
+        return verdict if own == verdict else None
+    return verdict
 
 
 def _side_by_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> bool:

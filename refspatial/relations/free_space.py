@@ -13,7 +13,8 @@ The thresholds are the ones published with RefSpatial:
 - candidates at platform height are projected into the image and dropped when occluded
   (|camera depth - rendered depth| > 2.5 cm); at least 30 % of free cells must be visible;
 - the answer is the mean of the visible valid cells, or the valid point nearest to it when the
-  mean itself is not valid. The region's visible image mask is kept with the answer.
+  mean itself is not valid (ours: for a sector, of the cells within the anchor's own width across
+  the direction, so the spot "in front of the lamp" is not in front of the thing beside it). The region's visible image mask is kept with the answer.
 Ours besides: the answer point keeps IMAGE_CLEARANCE of the image width away from every object's
 pixels (the platform's own aside). 1.5 cm behind a cup is free on the table but sits on the cup's
 outline in the picture, where a person sees no room at all.
@@ -109,7 +110,7 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     valid = free[visible]
     clear = image_clearance(v, support)
     uv, _ = project(np.column_stack([valid, np.full(len(valid), z)]), v.K, v.T_world_cam)
-    valid = valid[_cleared(clear, uv)]
+    valid = valid[_cleared(clear, uv) & _facing_anchors(v, constraints, valid)]
     if len(valid) == 0:
         return None
     mean = _column_means(valid)
@@ -135,6 +136,23 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
                 return None
             point, world = snapped, _lift(v, snapped, z)
     return FreeSpace(point, world, mask, area, support)
+
+
+def _facing_anchors(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
+    """Which points lie squarely towards a sector's direction: within its anchor's own width
+    across that direction (the shadow of its ground outline). The region stays RefSpatial's 90
+    degree sector, but the answer point keeps to this strip: a spot 26 cm to the side and 18 cm in
+    front of a lamp 19 cm wide is in front of the candle beside it, not of the lamp (annotator)."""
+    keep = np.ones(len(points), dtype=bool)
+    for c in constraints:
+        if c.kind != "sector":
+            continue
+        a, axis = v.objects[c.anchors[0]], direction_axis(v, c.direction)
+        across = np.array([-axis[1], axis[0], 0.0])
+        lo, hi = a.interval_along(across, float(a.center_world_m[:2] @ across[:2]))
+        lateral = points @ across[:2]
+        keep &= (lateral >= lo) & (lateral <= hi)
+    return keep
 
 
 def _platform(v: ViewFacts, constraints, anchors: list[ObjectFacts]):
