@@ -7,7 +7,7 @@ from refspatial.compose import SceneRejected
 from refspatial.pipeline import build_scene
 from refspatial.relations import TABLE, view_facts
 from refspatial.relations.free_space import (
-    CLEARANCE_M, DIRECTIONS, IMAGE_CLEARANCE, MIN_FREE_AREA_M2, OCCLUSION_M, Constraint, _sector, direction_axis, solve,
+    ANSWER_ROOM_M, CLEARANCE_M, DIRECTIONS, IMAGE_CLEARANCE, MIN_FREE_AREA_M2, OCCLUSION_M, Constraint, _sector, direction_axis, solve,
 )
 from refspatial.relations.geometry import inside_convex, project
 from refspatial.render import render_views
@@ -36,6 +36,10 @@ def _check(v, answer, constraints):
     assert np.all(np.abs(world[:2]) <= np.asarray(v.table_size_m) / 2)
     for o in v.objects:
         assert not inside_convex(world[None, :2], o.footprint_world, grow=CLEARANCE_M - 0.005)[0], o.object_id
+    if not any(c.kind == "offset" for c in constraints):  # room for a small thing there (annotator)
+        for o in v.objects:
+            if o.object_id != answer.support and o.aabb_world_m[0, 2] < world[2] + 0.05:
+                assert not inside_convex(world[None, :2], o.ground_outline, grow=ANSWER_ROOM_M - 0.01)[0], o.object_id
     uv, z = project(world[None], v.K, v.T_world_cam)
     assert abs(v.depth_m[int(uv[0, 1]), int(uv[0, 0])] - z[0]) <= OCCLUSION_M + 0.01
     assert answer.area_m2 > MIN_FREE_AREA_M2 or any(c.kind == "offset" for c in constraints)

@@ -467,3 +467,19 @@ def test_the_front_of_a_shelf_is_its_own_front_too():
     shelf = dataclasses.replace(table, table_levels_m=(0.38,))
     with pytest.raises(ProgramError, match="shelf"):
         execute(nodes, shelf)
+
+
+def test_in_front_of_a_chair_facing_away_reads_two_ways():
+    """Behind a chair whose backrest faces the camera is the chair's own front (annotator): "in
+    front of"/"behind" are asked of a chair only while it faces the camera, and no free spot is
+    sought behind or in front of it otherwise. A ball has no front of its own: the viewer decides."""
+    from refspatial.relations.free_space import Constraint, solve
+
+    facing = dataclasses.replace(_facts({"id": 0, "category": "chair", "at": [0.0, 0.3, 0.0], "size": [0.45, 0.45, 0.9]}),
+                                 front_world=np.array([0.0, -1.0, 0.0]))
+    ball = _facts({"id": 1, "category": "ball", "at": [0.05, -0.2, 0.0], "size": [0.1, 0.1, 0.1]})
+    assert PREDICATES["in_front_of"](view(facing, ball), ball, facing) is True
+    away = dataclasses.replace(facing, front_world=np.array([0.0, 1.0, 0.0]))
+    assert PREDICATES["in_front_of"](view(away, ball), ball, away) is None
+    assert PREDICATES["behind"](view(away, ball), away, ball) is None
+    assert solve(view(away, ball), (Constraint("sector", (0,), "behind"),)) is None

@@ -19,7 +19,8 @@ import numpy as np
 import yaml
 
 from ..relations import ObjectFacts, ViewFacts
-from ..relations.placement import MIN_FRONT_TILT, NO_FRONT
+from ..relations.facing import front_to_camera_deg
+from ..relations.placement import NO_FRONT
 
 TEMPLATES = Path(__file__).with_name("templates.yaml")
 SIDE_PREDICATES = ("on_facing_side", "on_back_side")
@@ -40,19 +41,6 @@ def side_limits() -> dict[str, tuple[float, float]]:
         if kind != "default":
             limits.update({side: limit(rule) for side in rule["sides"]})
     return limits
-
-
-def front_to_camera_deg(view: ViewFacts, o: ObjectFacts) -> float | None:
-    """Angle in degrees between the object's ground-projected front and the ground-projected
-    direction from the object to the camera; None where the front points mostly up or down."""
-    if o.front_world is None:
-        return None
-    front = np.asarray(o.front_world[:2], dtype=float)
-    to_camera = np.asarray(view.T_world_cam[:2, 3], dtype=float) - o.center_world_m[:2]
-    if np.linalg.norm(front) < MIN_FRONT_TILT or np.linalg.norm(to_camera) < 1e-6:
-        return None
-    cosine = front @ to_camera / (np.linalg.norm(front) * np.linalg.norm(to_camera))
-    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
 
 
 def side_visible(view: ViewFacts, o: ObjectFacts) -> bool:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .facing import front_reads_two_ways
 from .facts import ObjectFacts, ViewFacts
 from .masks import box_of, cached_boxes
 from .registry import Verdict, compare, predicate
@@ -107,7 +108,8 @@ def in_front_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     board is above the one on the bottom board, not in front of it: annotator), and when the two
     stand side to side more than 1/1.15 as far apart as front to back (two clocks 70 cm apart across
     and 12 cm in depth stand side by side: annotator; two pans 33 cm apart both ways stand diagonally)."""
-    if v.on_other_levels(a, b) or _side_by_side(v, a, b):
+    if v.on_other_levels(a, b) or _side_by_side(v, a, b) or \
+            front_reads_two_ways(v, a) or front_reads_two_ways(v, b):
         return None
     verdict = clear_order(v, a, b, v.forward_axis, a.forward_m, b.forward_m)
     if verdict is not None and v.table_levels_m:  # a shelf's own front reads "in front" too (annotator)

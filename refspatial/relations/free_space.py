@@ -16,7 +16,7 @@ The thresholds are the ones published with RefSpatial:
   mean itself is not valid (ours: for a sector, of the cells within the anchor's own width across
   the direction, so the spot "in front of the lamp" is not in front of the thing beside it). The region's visible image mask is kept with the answer.
 Ours besides: the answer point keeps IMAGE_CLEARANCE of the image width away from every object's
-pixels (the platform's own aside). 1.5 cm behind a cup is free on the table but sits on the cup's
+pixels (the platform's own aside), and ANSWER_ROOM_M on the platform from every thing on it. 1.5 cm behind a cup is free on the table but sits on the cup's
 outline in the picture, where a person sees no room at all.
 Metric offsets ("10 cm to the right of the cup") solve for the single point that far beyond
 the anchor's extent, which must be free (1.5 cm from any footprint) and visible.
@@ -33,6 +33,7 @@ from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
 
 from ..scene import LEG_HALF_M, LEG_INSET_M
+from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import inside_convex, inside_convex_grid, project
 from .masks import box_of, cached_boxes, padded
@@ -51,6 +52,9 @@ EDGE_MARGIN_M = 0.02  # and this far inside the platform's edge
 OBSTACLE_BAND_M = 0.05  # objects reaching into this band above the platform are in the way
 DIRECTIONS = ("left", "right", "front", "behind")
 IMAGE_CLEARANCE = 0.02  # share of the image width between an answer point and any object's pixels
+# The answer point itself keeps this far from every thing on its platform, so "room for one more
+# object" there holds for a small one: 1.6 cm from a toy car's nose held nothing (annotator).
+ANSWER_ROOM_M = 0.04
 
 
 @dataclass(frozen=True)
@@ -91,6 +95,9 @@ def solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool = T
 
 
 def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -> FreeSpace | None:
+    if any(c.kind in ("sector", "offset") and c.direction in ("front", "behind")
+           and front_reads_two_ways(v, v.objects[c.anchors[0]]) for c in constraints):
+        return None  # "behind the chair" facing away is its front by its own reading
     anchors = [v.objects[i] for c in constraints for i in c.anchors]
     platform = _platform(v, constraints, anchors)
     if platform is None:
@@ -110,7 +117,8 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     valid = free[visible]
     clear = image_clearance(v, support)
     uv, _ = project(np.column_stack([valid, np.full(len(valid), z)]), v.K, v.T_world_cam)
-    valid = valid[_cleared(clear, uv) & _facing_anchors(v, constraints, valid)]
+    valid = valid[_cleared(clear, uv) & _facing_anchors(v, constraints, valid) &
+                  _roomy(v, constraints, valid, support, z)]
     if len(valid) == 0:
         return None
     mean = _column_means(valid)
@@ -136,6 +144,18 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
                 return None
             point, world = snapped, _lift(v, snapped, z)
     return FreeSpace(point, world, mask, area, support)
+
+
+def _roomy(v: ViewFacts, constraints, points: np.ndarray, support: int, z: float) -> np.ndarray:
+    """Which points keep ANSWER_ROOM_M from every obstacle's ground outline (a metric offset's
+    single point is where its words put it, and keeps only the solver's clearance)."""
+    keep = np.ones(len(points), dtype=bool)
+    if any(c.kind == "offset" for c in constraints):
+        return keep
+    for o in _obstacles(v, support, z):
+        outline = o.ground_outline if o.ground_outline is not None else o.footprint_world
+        keep &= ~inside_convex(points, outline, grow=ANSWER_ROOM_M)
+    return keep
 
 
 def _facing_anchors(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
