@@ -483,3 +483,15 @@ def test_in_front_of_a_chair_facing_away_reads_two_ways():
     assert PREDICATES["in_front_of"](view(away, ball), ball, away) is None
     assert PREDICATES["behind"](view(away, ball), away, ball) is None
     assert solve(view(away, ball), (Constraint("sector", (0,), "behind"),)) is None
+
+
+def test_directly_above_needs_both_centres_of_the_smaller_inside():
+    """A pen holder with pens in it: its mesh box's centre and its oriented footprint's differ by
+    centimetres. A lamp overhead covers one and not the other: not "directly above" (strict audit)."""
+    lamp = _facts({"id": 0, "category": "lamp", "at": [0.0, 0.0, 0.76], "size": [0.2, 0.17, 0.32], "support": -3})
+    holder = _facts({"id": 1, "category": "pen_holder", "at": [0.06, 0.0, 0.0], "size": [0.1, 0.11, 0.15]})
+    assert PREDICATES["above"](view(lamp, holder), lamp, holder) is True
+    holder = dataclasses.replace(holder, outline_world=holder.footprint_world.copy())  # the mesh's own outline stays
+    shifted = dataclasses.replace(holder, footprint_world=holder.footprint_world + np.array([0.05, 0.0]))
+    assert PREDICATES["above"](view(lamp, holder), lamp, holder) is True
+    assert PREDICATES["above"](view(lamp, shifted), lamp, shifted) is None
