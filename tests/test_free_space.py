@@ -258,3 +258,25 @@ def test_grid_inside_test_equals_the_pointwise_one():
             for grow in (0.0, -0.02, 0.015):
                 expected = inside_convex(points, poly, grow).reshape(len(ys), len(xs))
                 assert np.array_equal(inside_convex_grid(xs, ys, poly, grow), expected)
+
+
+def test_between_spots_lie_in_the_middle_of_the_line_joining_their_anchors(views):
+    """A spot 15 % along the line from a stool to a pot and 21 cm off it is beside the stool, not
+    between the two (annotator): the answer keeps to the middle of the line and its corridor."""
+    solved = 0
+    for v in views:
+        objs = [o for o in v.askable() if o.support == TABLE]
+        for a in objs:
+            for b in objs:
+                if a.object_id >= b.object_id:
+                    continue
+                c = (Constraint("between", (a.object_id, b.object_id)),)
+                answer = solve(v, c)
+                if answer is None:
+                    continue
+                _check(v, answer, c)
+                seg = b.center_world_m[:2] - a.center_world_m[:2]
+                t = (answer.point_world_m[:2] - a.center_world_m[:2]) @ seg / (seg @ seg)
+                assert 0.2 - 0.05 <= t <= 0.8 + 0.05, (a.object_id, b.object_id, t)
+                solved += 1
+    assert solved >= 1

@@ -495,3 +495,17 @@ def test_directly_above_needs_both_centres_of_the_smaller_inside():
     shifted = dataclasses.replace(holder, footprint_world=holder.footprint_world + np.array([0.05, 0.0]))
     assert PREDICATES["above"](view(lamp, holder), lamp, holder) is True
     assert PREDICATES["above"](view(lamp, shifted), lamp, shifted) is None
+
+
+def test_a_free_spot_between_two_things_lies_in_the_middle_of_their_line():
+    """A spot 15 % along the line from a stool to a pot and 21 cm off it is beside the stool, not
+    between them (annotator); the middle of the line is."""
+    from refspatial.relations.free_space import Constraint, _squarely_between
+
+    stool = _facts({"id": 0, "category": "stool", "at": [0.0, 0.0, 0.0], "size": [0.35, 0.35, 0.45]})
+    pot = _facts({"id": 1, "category": "plant_pot", "at": [-0.37, 0.49, 0.0], "size": [0.2, 0.2, 0.3]})
+    between = (Constraint("between", (0, 1)),)
+    line = np.array([-0.37, 0.49])
+    beside = 0.15 * line + 0.21 * np.array([0.8, 0.6])  # 15 % along, 21 cm off the line
+    middle = 0.5 * line
+    assert _squarely_between(view(stool, pot), between, np.array([beside, middle])).tolist() == [False, True]

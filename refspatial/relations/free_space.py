@@ -33,6 +33,7 @@ from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
 
 from ..scene import LEG_HALF_M, LEG_INSET_M
+from .directional import BETWEEN_LATERAL_SHARE, BETWEEN_T
 from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import inside_convex, inside_convex_grid, project
@@ -118,7 +119,7 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     clear = image_clearance(v, support)
     uv, _ = project(np.column_stack([valid, np.full(len(valid), z)]), v.K, v.T_world_cam)
     valid = valid[_cleared(clear, uv) & _facing_anchors(v, constraints, valid) &
-                  _roomy(v, constraints, valid, support, z)]
+                  _squarely_between(v, constraints, valid) & _roomy(v, constraints, valid, support, z)]
     if len(valid) == 0:
         return None
     mean = _column_means(valid)
@@ -144,6 +145,30 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
                 return None
             point, world = snapped, _lift(v, snapped, z)
     return FreeSpace(point, world, mask, area, support)
+
+
+def _squarely_between(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
+    """Which points lie between a "between" region's anchors as the relation reads it: the middle
+    of the line joining their centres (BETWEEN_T) and inside its corridor. The region stays
+    RefSpatial's hull of both footprints, but a spot 15 % along the line and 21 cm off it, by the
+    stool's foot, is beside the stool, not between it and the pot (annotator)."""
+    keep = np.ones(len(points), dtype=bool)
+    for c in constraints:
+        if c.kind != "between":
+            continue
+        b, d = (v.objects[i] for i in c.anchors)
+        q, r = b.center_world_m[:2], d.center_world_m[:2]
+        seg = r - q
+        length = float(np.linalg.norm(seg))
+        if length < 1e-9:
+            return np.zeros(len(points), dtype=bool)
+        across = np.array([-seg[1], seg[0], 0.0]) / length
+        half_width = 0.5 * max(b.extent_along(across), d.extent_along(across))
+        rel = points - q
+        t = rel @ seg / length**2
+        off = np.abs(rel @ across[:2])
+        keep &= (t >= BETWEEN_T[0]) & (t <= BETWEEN_T[1]) & (off <= min(half_width, BETWEEN_LATERAL_SHARE * length))
+    return keep
 
 
 def _roomy(v: ViewFacts, constraints, points: np.ndarray, support: int, z: float) -> np.ndarray:
