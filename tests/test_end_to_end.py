@@ -116,7 +116,9 @@ def test_verify_names_the_damaged_records_of_a_changed_shard(tiny_dataset, tmp_p
     assert failures[0] == "shards/shard-00001.mcap: sha256 differs from manifest.json"
     named = [f for f in failures[1:] if f.startswith("shards/shard-00001.mcap record ")]
     assert named and len(named) == len(failures) - 1, failures
-    assert all(keys[int(f.split()[2])] in f and "CRC" in f.upper() for f in named), named
+    # Where the byte lands (a chunk's data or its framing) decides whether the CRC check or the
+    # decoder catches it first; either way the record is named as damaged.
+    assert all(keys[int(f.split()[2])] in f and ("CRC" in f.upper() or "DAMAGED" in f.upper()) for f in named), named
 
 
 def test_same_command_gives_identical_bytes_whatever_the_worker_count(tiny_dataset, tiny, catalogue, tmp_path):
