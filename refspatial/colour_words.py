@@ -48,15 +48,19 @@ def known(word: str) -> bool:
     return word in _table()[0]
 
 
-def reads_as(lab, word: str) -> bool:
+def reads_as(lab, word: str, margin: float = 0.0) -> bool:
     """Whether a mean rendered Lab colour reads as ``word``: its prototype is the nearest (up to
-    words that read alike). Words without a prototype never do: nobody has looked at them."""
+    words that read alike), and nearer than any word that reads otherwise by ``margin`` (CIE Lab
+    units). Words without a prototype never do: nobody has looked at them."""
     prototypes, alike = _table()
     if word not in prototypes:
         return False
     lab = np.asarray(lab, float)
-    nearest = min(prototypes, key=lambda w: float(np.linalg.norm(lab - prototypes[w])))
-    return alike.get(nearest, nearest) == alike.get(word, word)
+    distance = {w: float(np.linalg.norm(lab - p)) for w, p in prototypes.items()}
+    group = alike.get(word, word)
+    own = min(d for w, d in distance.items() if alike.get(w, w) == group)
+    others = [d for w, d in distance.items() if alike.get(w, w) != group]
+    return not others or own + margin < min(others)
 
 
 def calibrate(*roots: Path) -> dict[str, list]:

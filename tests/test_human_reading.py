@@ -509,3 +509,14 @@ def test_a_free_spot_between_two_things_lies_in_the_middle_of_their_line():
     beside = 0.15 * line + 0.21 * np.array([0.8, 0.6])  # 15 % along, 21 cm off the line
     middle = 0.5 * line
     assert _squarely_between(view(stool, pot), between, np.array([beside, middle])).tolist() == [False, True]
+
+
+def test_a_colour_word_needs_a_clear_margin():
+    """A tissue box whose mean colour lies as near the "gray" prototype as the "white" one reads
+    either way: the question engine does not call it white (strict audit, seed 63)."""
+    from refspatial.colour_words import _table, reads_as
+    from refspatial.questions.refer import COLOUR_MARGIN
+
+    box = [45.03, 3.4, 9.63]  # its stored mean Lab: 11.5 from the white and the gray prototype
+    assert reads_as(box, "white") and not reads_as(box, "white", COLOUR_MARGIN)
+    assert reads_as(_table()[0]["white"], "white", COLOUR_MARGIN)
