@@ -520,3 +520,11 @@ def test_a_colour_word_needs_a_clear_margin():
     box = [45.03, 3.4, 9.63]  # its stored mean Lab: 11.5 from the white and the gray prototype
     assert reads_as(box, "white") and not reads_as(box, "white", COLOUR_MARGIN)
     assert reads_as(_table()[0]["white"], "white", COLOUR_MARGIN)
+
+
+def test_shorter_is_not_asked_of_a_thing_lying_longer_than_the_other_stands():
+    """A 20 cm screwdriver lying flat against an 18 cm wine glass: lower, but longer than the
+    glass is tall; "which is shorter?" reads both ways (annotator)."""
+    screwdriver = _facts({"id": 0, "category": "screwdriver", "at": [-0.2, 0.2, 0.0], "size": [0.197, 0.03, 0.029]})
+    glass = _facts({"id": 1, "category": "wine_glass", "at": [0.2, 0.2, 0.0], "size": [0.08, 0.08, 0.182]})
+    assert PREDICATES["shorter_than"](view(screwdriver, glass), screwdriver, glass) is None

@@ -34,14 +34,14 @@ def _relative(diff: float, scale: float, margin: tuple[float, float]) -> Verdict
 @predicate("taller_than", family="tall_short", arity=2, frame="world", inverse="shorter_than")
 def taller_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A's height along gravity (world box) exceeds B's by max(2 cm, 20 % of the taller), and
-    B's longest dimension is not clearly longer than A's (10 %): "shorter" also reads as less
-    long, so an orange against a 22 cm screwdriver lying flat is undecided (annotator)."""
+    B's longest dimension is no longer than A's: "shorter" also reads as less long, so an orange
+    against a 22 cm screwdriver lying flat is undecided (annotator), and so is a 20 cm
+    screwdriver lying flat against an 18 cm wine glass (annotator)."""
     verdict = _relative(a.height_m - b.height_m, max(a.height_m, b.height_m), HEIGHT_MARGIN)
     if verdict is None:
         return None
     taller, other = (a, b) if verdict else (b, a)
-    lt, lo = _longest(v, taller), _longest(v, other)
-    return None if compare(lo - lt, LONGEST_MARGIN * max(lt, lo)) is True else verdict
+    return None if _longest(v, other) > _longest(v, taller) else verdict
 
 
 @predicate("shorter_than", family="tall_short", arity=2, frame="world", inverse="taller_than")
