@@ -120,14 +120,10 @@ def in_front_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 
 def _side_by_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> bool:
-    """Not clearly further apart front to back than side to side, by the mesh's box centres or by
-    its oriented footprint's: the two differ by centimetres for a pen holder with pens in it, and
-    a strict reader takes either (strict audit: 29 cm deep against 31 cm across by one, in front
-    by the other)."""
-    centres = [(a.center_world_m[:2], b.center_world_m[:2])]
-    if a.footprint_world is not None and b.footprint_world is not None:
-        centres.append((a.footprint_world.mean(0), b.footprint_world.mean(0)))
-    for ca, cb in centres:
+    """Not clearly further apart front to back than side to side, by either reading of the
+    centres (``ground_centres``; strict audit: a pen holder 29 cm deep against 31 cm across by
+    one, in front by the other)."""
+    for ca, cb in zip(a.ground_centres, b.ground_centres):
         d = ca - cb
         if FRONT_OVER_SIDE * abs(float(d @ v.right_axis[:2])) > abs(float(d @ v.forward_axis[:2])):
             return True
@@ -209,13 +205,13 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
 
 
 def _in_corridor_by_footprints(a: ObjectFacts, b: ObjectFacts, c: ObjectFacts, half_width: float) -> bool:
-    """The corridor test again with the centres of the oriented footprints: for a pen holder with
-    pens in it they lie centimetres from the mesh box's, and a strict reader may take either (a
-    holder 0.20 of the anchors' distance off their line by one, 0.26 by the other: strict audit)."""
-    if any(o.footprint_world is None for o in (a, b, c)):
-        return True
-    t, d, length = _along_and_off(*(o.footprint_world.mean(0) for o in (a, b, c)))
-    return BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= min(half_width, BETWEEN_LATERAL_SHARE * length)
+    """The corridor test again by the other reading of the centres (``ground_centres``; strict
+    audit: a pen holder 0.20 of the anchors' distance off their line by one, 0.26 by the other)."""
+    for p, q, r in list(zip(a.ground_centres, b.ground_centres, c.ground_centres))[1:]:
+        t, d, length = _along_and_off(p, q, r)
+        if not (BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= min(half_width, BETWEEN_LATERAL_SHARE * length)):
+            return False
+    return True
 
 
 def _spans(a: tuple[float, float], b: tuple[float, float]) -> bool:

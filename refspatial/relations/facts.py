@@ -68,6 +68,16 @@ class ObjectFacts:
         centre.flags.writeable = False
         return centre
 
+    @cached_property
+    def ground_centres(self) -> tuple[np.ndarray, ...]:
+        """Where a strict reader may put the thing on the ground: its mesh box's centre and, where
+        known, its oriented footprint's. They differ by centimetres for a pen holder with pens in
+        it or a pan with a handle, so relations that hinge on a centre must hold by both."""
+        centres = (self.center_world_m[:2],)
+        if self.footprint_world is not None:
+            centres += (self.footprint_world.mean(0),)
+        return centres
+
     @property
     def footprint_m(self) -> np.ndarray:
         """(x, y) extents of the world box on the ground."""

@@ -25,13 +25,9 @@ def _overlap(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, bool]
     if key not in v.cache:
         small, big = (a, b) if polygon_area(a.ground_outline) <= polygon_area(b.ground_outline) else (b, a)
         share = overlap_share(small.ground_outline, big.ground_outline)
-        # 5 mm inside, not on the line: a box's centre and its mesh's differ by millimetres, and
-        # by centimetres for a pen holder with pens in it, so both must lie inside (strict audit:
-        # a lamp two boards up "directly above" one by the mesh box's centre only)
-        centres = [small.center_world_m[:2]]
-        if small.footprint_world is not None:
-            centres.append(small.footprint_world.mean(0))
-        centred = share > 0 and bool(inside_convex(np.array(centres), big.ground_outline, -0.005).all())
+        # 5 mm inside, not on the line, by both readings of the centre (``ground_centres``;
+        # strict audit: a lamp two boards up "directly above" a pen holder by one only)
+        centred = share > 0 and bool(inside_convex(np.array(small.ground_centres), big.ground_outline, -0.005).all())
         v.cache[key] = (share, centred)
     return v.cache[key]
 
