@@ -117,6 +117,7 @@ class ShardWriter:
         self._channels = _register_channels(self._mcap)
         self._keys: set[str] = set()
         self._done = False
+        self.sha256: str | None = None  # of the finished file, set by close()
 
     def __enter__(self) -> ShardWriter:
         return self
@@ -154,6 +155,10 @@ class ShardWriter:
             self._file.flush()
             os.fsync(self._file.fileno())
             self._file.close()
+            # Hashed before the rename, so the shard's sidecar follows it in milliseconds: an
+            # interrupt while a finished shard was being hashed left it without one (a Ctrl-C test
+            # caught it once in a fresh clone).
+            self.sha256 = sha256_file(self.partial_path)
             os.replace(self.partial_path, self.path)
         except BaseException:
             self.abort()
