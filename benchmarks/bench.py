@@ -41,7 +41,7 @@ from refspatial.compose import SceneRejected  # noqa: E402
 from refspatial.looks import load_looks, texture_bank  # noqa: E402
 from refspatial.pipeline import STAGES, build_scene, generate_scene  # noqa: E402
 from refspatial.recipe import load_recipe  # noqa: E402
-from refspatial.render import render_views  # noqa: E402
+from refspatial.render import PHASES, gl_info, render_views  # noqa: E402
 from refspatial.seeding import scene_seed  # noqa: E402
 from refspatial.shards import ShardJob, generate, run_shard  # noqa: E402
 
@@ -80,9 +80,9 @@ def bare_scenes(recipe, catalogue, n: int) -> list:
     return scenes
 
 
-def bare_render(scenes: list, catalogue) -> tuple[float, int]:
+def bare_render(scenes: list, catalogue, timings: dict[str, float] | None = None) -> tuple[float, int]:
     start = time.perf_counter()
-    views = sum(len(render_views(s, catalogue.materials)) for s in scenes)
+    views = sum(len(render_views(s, catalogue.materials, timings)) for s in scenes)
     return time.perf_counter() - start, views
 
 
@@ -103,6 +103,8 @@ def main() -> None:
     cam = recipe["camera"]
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"python {platform.python_version()}, MUJOCO_GL={os.environ['MUJOCO_GL']}")
+    gl = gl_info()
+    print(f"GL: {gl['renderer']} ({gl['vendor']}, {gl['version']})")
     print(f"recipe {recipe.name}: {cam['width']}x{cam['height']}, {cam['views']} view(s)/scene, "
           f"{recipe['questions']['per_view']} QA/view wanted, {args.scenes} scenes")
     generate_scene(recipe, catalogue, scene_seed(1, 0))  # warm-up, outside the measured seeds
@@ -132,11 +134,14 @@ def main() -> None:
     peaks = stage_memory(recipe, catalogue, min(args.scenes, 4))
     print("\npeak memory allocated per stage (tracemalloc, first 4 scenes; GL and MuJoCo C memory not included):")
     print("  " + "   ".join(f"{stage} {peaks.get(stage, 0) / 2**20:.1f} MiB" for stage in STAGES))
-    after_s, _ = bare_render(scenes, catalogue)
+    phases: dict[str, float] = {}
+    after_s, _ = bare_render(scenes, catalogue, phases)
     bare_s = (before_s + after_s) / 2
     print(f"\nbare MuJoCo render of the same {views} views on the same core (model compile, MjrContext, colour pass and "
           f"depth+segmentation pass, GL context reused, as in the pipeline), before and after the end-to-end run: "
-          f"{before_s:.2f} s and {after_s:.2f} s, mean {views / bare_s:.2f} views/s")
+          f"{before_s:.2f} s and {after_s:.2f} s, mean {views / bare_s:.2f} views/s, {1000 * bare_s / views:.1f} ms/view")
+    print("  where a view's render time goes (second bare run; read-backs wait for the GPU): " + "   ".join(
+        f"{phase} {1000 * phases.get(phase, 0.0) / views:.1f} ms" for phase in PHASES))
     print(f"ratio end-to-end / bare render: {(records / e2e_s) / (views / bare_s):.2f}")
     if args.workers > 1:
         os.sched_setaffinity(0, all_cores)  # the workers inherit it

@@ -244,10 +244,21 @@ class RayExecutor:
         ray = import_ray()
         started = _connect(ray, self.address, self.num_cpus)
         try:
+            self._check_gpus(ray)
             yield from self._run(ray, jobs, on_scene)
         finally:
             if started:
                 ray.shutdown()
+
+    def _check_gpus(self, ray: Any) -> None:
+        """Ray queues a task no node can hold and waits for ever: a GPU share on a cluster
+        without one is a hang, not an error, unless it is caught here."""
+        if self.gpus_per_task <= 0:
+            return
+        most = max((n.get("Resources", {}).get("GPU", 0.0) for n in ray.nodes() if n.get("Alive")), default=0.0)
+        if most < self.gpus_per_task:
+            raise RunError(f"--gpus-per-task {self.gpus_per_task:g} asks for more GPU than any node of the Ray "
+                           f"cluster has ({most:g}); drop --gpus-per-task to render on CPUs, or add GPU nodes")
 
     def _run(self, ray: Any, jobs: Sequence[ShardJob], on_scene: OnScene | None) -> Iterator[ShardResult]:
         from ray.util.queue import Queue

@@ -14,7 +14,10 @@ from __future__ import annotations
 
 import atexit
 import os
+import time
+from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Iterator
 
 import numpy as np
 
@@ -72,20 +75,50 @@ class _Context:
             cls.gl, cls.size = None, (0, 0)
 
 
-def render_views(scene: Scene, materials: dict[str, MaterialSpec]) -> list[View]:
-    """Render every camera of a settled scene."""
+PHASES = ("compile", "upload", "colour", "depth+seg", "convert")  # what render_views' timings hold
+
+
+@contextmanager
+def _timed(timings: dict[str, float] | None, phase: str) -> Iterator[None]:
+    if timings is None:
+        yield
+        return
+    start = time.perf_counter()
+    try:
+        yield
+    finally:
+        timings[phase] = timings.get(phase, 0.0) + time.perf_counter() - start
+
+
+def gl_info() -> dict[str, str]:
+    """Who draws: GL vendor, renderer and version of this process's context (llvmpipe is Mesa
+    on the CPU; an NVIDIA renderer string means the GPU)."""
+    _Context.current(64, 64)
+    from OpenGL import GL
+
+    return {k: GL.glGetString(getattr(GL, f"GL_{k.upper()}")).decode() for k in ("vendor", "renderer", "version")}
+
+
+def render_views(scene: Scene, materials: dict[str, MaterialSpec],
+                 timings: dict[str, float] | None = None) -> list[View]:
+    """Render every camera of a settled scene. ``timings``, when given, gains the seconds spent
+    in each of PHASES: the model's compile, its upload to the GL context (meshes, textures), the
+    colour pass, the depth and segmentation pass (each with its read-back, which waits for the
+    GPU), and the conversion of read-back buffers into metres and object ids."""
     import mujoco
 
     width, height = scene.cameras[0].width, scene.cameras[0].height
     for cam in scene.cameras:
         if (cam.width, cam.height) != (width, height):
             raise ValueError(f"camera {cam.name} is {cam.width}x{cam.height}; all views of a scene must share one size")
-    model = build_spec(scene, materials, SpecOptions(dynamic=False, offscreen=(width, height))).compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    _Context.current(model.vis.global_.offwidth, model.vis.global_.offheight)
-    # No text is ever drawn; the smallest font halves the context's set-up time (20 ms a scene).
-    ctx = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50.value)
+    with _timed(timings, "compile"):
+        model = build_spec(scene, materials, SpecOptions(dynamic=False, offscreen=(width, height))).compile()
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+    with _timed(timings, "upload"):
+        _Context.current(model.vis.global_.offwidth, model.vis.global_.offheight)
+        # No text is ever drawn; the smallest font halves the context's set-up time (20 ms a scene).
+        ctx = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50.value)
     try:
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, ctx)
         ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
@@ -93,12 +126,13 @@ def render_views(scene: Scene, materials: dict[str, MaterialSpec]) -> list[View]
         # One abstract scene for all views, sized to the model: allocating room for thousands of
         # geoms took longer than reading a view back.
         scn = mujoco.MjvScene(model, maxgeom=model.ngeom + SPARE_GEOMS)
-        return [_render_one(model, data, ctx, scn, cam, lookup) for cam in scene.cameras]
+        return [_render_one(model, data, ctx, scn, cam, lookup, timings) for cam in scene.cameras]
     finally:
         ctx.free()
 
 
-def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray) -> View:
+def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray,
+                timings: dict[str, float] | None) -> View:
     import mujoco
 
     option = mujoco.MjvOption()
@@ -114,17 +148,20 @@ def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray) -> View:
     room_casts_no_shadow(model, scn)
     rect = mujoco.MjrRect(0, 0, cam.width, cam.height)
     rgb = np.empty((cam.height, cam.width, 3), dtype=np.uint8)
-    mujoco.mjr_render(rect, scn, ctx)
-    mujoco.mjr_readPixels(rgb, None, rect, ctx)
+    with _timed(timings, "colour"):
+        mujoco.mjr_render(rect, scn, ctx)
+        mujoco.mjr_readPixels(rgb, None, rect, ctx)
     scn.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
     scn.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
     ids = np.empty((cam.height, cam.width, 3), dtype=np.uint8)
     raw = np.empty((cam.height, cam.width), dtype=np.float32)
-    mujoco.mjr_render(rect, scn, ctx)
-    mujoco.mjr_readPixels(ids, raw, rect, ctx)
-    # OpenGL's rows run bottom-up.
-    return View(cam, np.flipud(rgb).copy(), np.flipud(metric_depth(model, raw)).copy(),
-                np.flipud(_segmentation(scn, ids, lookup)).copy())
+    with _timed(timings, "depth+seg"):
+        mujoco.mjr_render(rect, scn, ctx)
+        mujoco.mjr_readPixels(ids, raw, rect, ctx)
+    with _timed(timings, "convert"):
+        # OpenGL's rows run bottom-up.
+        return View(cam, np.flipud(rgb).copy(), np.flipud(metric_depth(model, raw)).copy(),
+                    np.flipud(_segmentation(scn, ids, lookup)).copy())
 
 
 def room_casts_no_shadow(model, scn) -> None:

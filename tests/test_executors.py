@@ -214,6 +214,8 @@ def test_ray_writes_the_same_bytes_as_the_local_executor(tiny, catalogue, tmp_pa
                  progress=recorder, executor=RayExecutor())
         ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # Ray workers lack tests/ on sys.path
         gpu = list(RayExecutor(gpus_per_task=0.5, shard_fn=env_probe).run(jobs(2, tmp_path)))
+        with pytest.raises(RunError, match="asks for more GPU than any node of the Ray cluster has \\(1\\)"):
+            list(RayExecutor(gpus_per_task=2, shard_fn=env_probe).run(jobs(2, tmp_path)))  # a hang, were it not caught
     finally:
         ray.shutdown()
     same_files(tmp_path / "ray", tmp_path / "local")

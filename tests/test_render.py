@@ -6,7 +6,7 @@ import pytest
 from refspatial.camera import _object_corners, project
 from refspatial.compose import SceneRejected
 from refspatial.pipeline import build_scene
-from refspatial.render import render_views
+from refspatial.render import PHASES, gl_info, render_views
 
 
 @pytest.fixture(scope="module")
@@ -114,6 +114,20 @@ def test_matches_mujocos_own_renderer(rendered, catalogue):
     assert np.array_equal(rgb, view.rgb)
     assert np.allclose(depth, view.depth_m, rtol=1e-4, atol=1e-5)  # float32 formulas differ at 100 m (sky)
     assert np.array_equal(seg, view.seg)
+
+
+def test_timed_render_fills_every_phase_and_draws_the_same_view(rendered, catalogue):
+    """bench.py's per-phase table (where a view's render time goes, on CPU or GPU) reads these."""
+    scene, view = rendered
+    timings: dict[str, float] = {}
+    timed = render_views(scene, catalogue.materials, timings)[0]
+    assert set(timings) == set(PHASES) and all(t > 0 for t in timings.values())
+    assert np.array_equal(timed.rgb, view.rgb) and np.array_equal(timed.seg, view.seg)
+
+
+def test_gl_info_names_the_renderer():
+    info = gl_info()
+    assert set(info) == {"vendor", "renderer", "version"} and all(info.values())
 
 
 def test_repeated_renders_are_identical(rendered, catalogue):
