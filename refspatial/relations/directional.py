@@ -190,26 +190,36 @@ def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Ver
     t, d, length = _along_and_off(*(o.center_world_m[:2] for o in (a, b, c)))
     if length < BETWEEN_MIN_GAP_M:
         return None
-    # The corridor is as wide as the anchors are across it (a banana lying along the line is
-    # narrow there, whatever its turned footprint box says).
-    seg = c.center_world_m[:2] - b.center_world_m[:2]
-    across = np.array([-seg[1], seg[0], 0.0]) / length
-    half_width = 0.5 * max(b.extent_along(across), c.extent_along(across))
+    _, half_width = corridor(b, c)
     if t < -BETWEEN_BEYOND or t > 1 + BETWEEN_BEYOND or d > max(half_width + BETWEEN_OUTSIDE_M,
                                                                BETWEEN_LOOSE_SHARE * length):
         return False
-    if BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= min(half_width, BETWEEN_LATERAL_SHARE * length) and \
-            _in_corridor_by_footprints(a, b, c, half_width):
+    if squarely_between(t, d, length, half_width) and _in_corridor_by_footprints(a, b, c, half_width):
         return True if _between_in_image(a, b, c) else None
     return None
+
+
+def corridor(b: ObjectFacts, c: ObjectFacts) -> tuple[np.ndarray, float]:
+    """The ground-plane unit vector across the line from B's centre to C's, and the corridor's
+    half-width: half the wider anchor's extent across that line (a banana lying along the line
+    is narrow there, whatever its turned footprint box says). B and C must not share a centre."""
+    seg = c.center_world_m[:2] - b.center_world_m[:2]
+    across = np.array([-seg[1], seg[0], 0.0]) / float(np.linalg.norm(seg))
+    return across, 0.5 * max(b.extent_along(across), c.extent_along(across))
+
+
+def squarely_between(t, d, length: float, half_width: float):
+    """True where a point t along the anchors' line (0 at B, 1 at C) and d off it lies squarely
+    between them: in the middle of the line (BETWEEN_T) and inside the corridor, at most a fifth
+    of the anchors' distance off it. Scalars or arrays, for the relation and the free spots."""
+    return (t >= BETWEEN_T[0]) & (t <= BETWEEN_T[1]) & (d <= min(half_width, BETWEEN_LATERAL_SHARE * length))
 
 
 def _in_corridor_by_footprints(a: ObjectFacts, b: ObjectFacts, c: ObjectFacts, half_width: float) -> bool:
     """The corridor test again by the other reading of the centres (``ground_centres``; strict
     audit: a pen holder 0.20 of the anchors' distance off their line by one, 0.26 by the other)."""
     for p, q, r in list(zip(a.ground_centres, b.ground_centres, c.ground_centres))[1:]:
-        t, d, length = _along_and_off(p, q, r)
-        if not (BETWEEN_T[0] <= t <= BETWEEN_T[1] and d <= min(half_width, BETWEEN_LATERAL_SHARE * length)):
+        if not squarely_between(*_along_and_off(p, q, r), half_width):
             return False
     return True
 

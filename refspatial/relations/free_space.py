@@ -33,7 +33,7 @@ from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
 
 from ..scene import LEG_HALF_M, LEG_INSET_M
-from .directional import BETWEEN_LATERAL_SHARE, BETWEEN_T
+from .directional import corridor, squarely_between
 from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import inside_convex, inside_convex_grid, project
@@ -162,12 +162,9 @@ def _squarely_between(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarr
         length = float(np.linalg.norm(seg))
         if length < 1e-9:
             return np.zeros(len(points), dtype=bool)
-        across = np.array([-seg[1], seg[0], 0.0]) / length
-        half_width = 0.5 * max(b.extent_along(across), d.extent_along(across))
+        across, half_width = corridor(b, d)
         rel = points - q
-        t = rel @ seg / length**2
-        off = np.abs(rel @ across[:2])
-        keep &= (t >= BETWEEN_T[0]) & (t <= BETWEEN_T[1]) & (off <= min(half_width, BETWEEN_LATERAL_SHARE * length))
+        keep &= squarely_between(rel @ seg / length**2, np.abs(rel @ across[:2]), length, half_width)
     return keep
 
 
