@@ -497,6 +497,22 @@ def test_directly_above_needs_both_centres_of_the_smaller_inside():
     assert PREDICATES["above"](view(lamp, shifted), lamp, shifted) is None
 
 
+def test_directly_above_is_never_asked_looking_at_the_image():
+    """In a picture the thing behind sits above the thing in front: "Looking at the image, is the
+    second tissue box directly above the frontmost?" reads yes there and no on the table
+    (annotator). Stacked over in the room is asked without pointing at the picture."""
+    from refspatial.questions.choice import _yes_no
+
+    lamp = _facts({"id": 0, "category": "lamp", "at": [0.0, 0.0, 0.76], "size": [0.2, 0.17, 0.32], "support": -3})
+    box = _facts({"id": 1, "category": "tissue_box", "at": [0.0, 0.0, 0.0], "size": [0.12, 0.12, 0.1]})
+    asked = [qa["prompt"] for seed in range(60)
+             if (qa := _yes_no({"self": view(lamp, box)}, ["above", "below"], np.random.default_rng(seed)))]
+    assert len(asked) > 30 and not any("image" in p for p in asked), [p for p in asked if "image" in p][:3]
+    near = [qa["prompt"] for seed in range(60)
+            if (qa := _yes_no({"self": view(lamp, box)}, ["near"], np.random.default_rng(seed)))]
+    assert any("image" in p for p in near)  # other relations still may
+
+
 def test_a_free_spot_between_two_things_lies_in_the_middle_of_their_line():
     """A spot 15 % along the line from a stool to a pot and 21 cm off it is beside the stool, not
     between them (annotator); the middle of the line is."""

@@ -53,7 +53,10 @@ def _yes_no(views, predicates: list[str], rng) -> QA | None:
     if pred.arity == 1:
         prompt = book.template("yes_no_unary", rng=rng).format(a=words[0], phrase=phrase)
     else:
-        prompt = book.template("yes_no", rng=rng).format(a=words[0], b=words[1], phrase=phrase)
+        templates = book.data["yes_no"]
+        if name in book.data["yes_no_not_by_the_picture"]:
+            templates = [t for t in templates if "image" not in t]
+        prompt = book.pick(templates, rng).format(a=words[0], b=words[1], phrase=phrase)
     return make_qa("choice", "yes_no", prompt, "(A)" if values[-1] else "(B)", program, values, views, rng)
 
 
