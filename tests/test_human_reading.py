@@ -292,6 +292,41 @@ def test_the_distance_between_round_things_is_between_their_outlines():
     assert PREDICATES["distance_between"](view(a, b), a, b).value == pytest.approx(np.hypot(0.2, 0.2) - 0.08, abs=2e-3)
 
 
+def test_the_distance_to_a_thing_on_furniture_counts_the_height_between():
+    """A bowl on the floor and a pen holder on a coffee table's top, 34 cm above the bowl's rim:
+    the nearest points are 1.08 m apart, not the 1.03 m between their outlines on the ground
+    (annotator). Both rest on the floor through the table, so they are on one "level"."""
+    table = _facts({"id": 0, "category": "coffee_table", "at": [1.0, 0.3, 0.0], "size": [0.8, 0.5, 0.41]})
+    bowl = _facts({"id": 1, "category": "bowl", "at": [0.0, 0.0, 0.0], "size": [0.18, 0.18, 0.069]})
+    holder = _facts({"id": 2, "category": "pen_holder", "at": [1.0, 0.3, 0.41], "size": [0.11, 0.11, 0.13],
+                     "support": 0})
+    ground = float(np.hypot(1.0 - 0.09 - 0.055, 0.3 - 0.09 - 0.055))  # box corner to box corner
+    assert PREDICATES["distance_between"](view(table, bowl, holder), bowl, holder).value == \
+        pytest.approx(np.hypot(ground, 0.41 - 0.069), abs=1e-6)
+    beside = _facts({"id": 3, "category": "mug", "at": [0.3, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
+    assert PREDICATES["distance_between"](view(bowl, beside), bowl, beside).value == pytest.approx(0.3 - 0.09 - 0.04)
+
+
+def test_a_tissue_box_is_a_box_to_a_reader():
+    """A green box and a pink tissue box on one board: "the box" could be either to anyone
+    looking (annotator), so it is never the whole description, and boxes are not counted."""
+    from refspatial.questions.quantity import _count
+    from refspatial.questions.refer import Ref, resolves
+
+    box = _facts({"id": 0, "category": "box", "at": [0.2, 0.1, 0.0], "size": [0.18, 0.12, 0.1]})
+    tissues = _facts({"id": 2, "category": "tissue_box", "at": [-0.2, 0.1, 0.0], "size": [0.12, 0.23, 0.1]})
+    tissues = dataclasses.replace(tissues, name="tissue box", color="pink")
+    mug = _facts({"id": 1, "category": "mug", "at": [0.0, -0.1, 0.0], "size": [0.08, 0.08, 0.1]})
+    assert resolves(Ref(0, "box", "box"), view(box, mug))
+    assert not resolves(Ref(0, "box", "box"), view(box, mug, tissues))
+    assert resolves(Ref(2, "tissue_box", "tissue box"), view(box, mug, tissues))  # a box is no tissue box
+    assert resolves(Ref(0, "box", "box", "red"), view(box, mug, tissues))  # the colour tells them apart
+    counted = {qa["prompt"] for seed in range(40) if (qa := _count({"self": view(box, mug, tissues)},
+                                                                   np.random.default_rng(seed)))}
+    assert counted and not any(("the boxes" in p or "many boxes" in p) for p in counted), counted
+    assert any("tissue boxes" in p for p in counted)  # the tissue boxes are counted all the same
+
+
 def test_nearer_to_the_camera_holds_in_a_straight_line_too():
     """A cup 60 cm to the side is 17 cm nearer along the viewing direction than a mug ahead, but
     only 3 cm nearer in a straight line from the lens: a person could read it either way."""
@@ -351,14 +386,20 @@ def test_the_nearest_needs_every_reading_of_nearer():
 def test_a_camera_pan_turns_about_the_vertical():
     """The camera looks 30 degrees down; a jar 0.5 m right and 1 m ahead of it on the ground
     plane needs a level pan of atan(0.5 / 1) = 26.6 degrees, whatever its height (the camera's
-    tilted up-axis gives another angle: annotator), then a tilt to its elevation."""
+    tilted up-axis gives another angle: annotator). The tilt after it is asked only where
+    both readings of "after turning to face it" agree: straight ahead, the jar's elevation
+    less the camera's pitch; 0.5 m to the right, 8.1 degrees up after a level pan but 5.3
+    after a turn about the camera's own axis, so not at all (annotator: "3 degrees up" for a
+    candle that one reading put 1 degree down)."""
     jar = _facts({"id": 0, "category": "jar", "at": [0.5, 0.0, 0.0], "size": [0.08, 0.08, 0.1]})
     v = view(jar)
     pan = PREDICATES["rotate_horizontal"](v, jar)
     assert pan.value == pytest.approx(np.degrees(np.arctan2(0.5, 1.0)), abs=0.01)
-    centre = jar.center_world_m - T[:3, 3]
+    assert PREDICATES["rotate_vertical"](v, jar) is None
+    ahead = _facts({"id": 0, "category": "jar", "at": [0.0, 0.2, 0.0], "size": [0.08, 0.08, 0.1]})
+    centre = ahead.center_world_m - T[:3, 3]
     elevation = np.degrees(np.arctan2(centre[2], np.hypot(centre[0], centre[1])))
-    assert PREDICATES["rotate_vertical"](v, jar).value == pytest.approx(elevation + 30.0, abs=0.01)
+    assert PREDICATES["rotate_vertical"](view(ahead), ahead).value == pytest.approx(elevation + 30.0, abs=0.01)
 
 
 def test_ranks_from_the_left_are_counted_in_the_picture():

@@ -51,10 +51,26 @@ def _scene(view: ViewFacts, node: Node) -> list[int]:
     return [o.object_id for o in view.objects if o.status != "hidden"]
 
 
+def answers_to(view: ViewFacts, o, category: str | None) -> bool:
+    """Whether a person would count the object among things called by the category's name: any
+    object for None, its own category, and any kind of it whose name ends in that name. A tissue
+    box is a box to anyone looking, so "the box" beside one is ambiguous (annotator); a plant pot
+    is a pot."""
+    if category is None or o.category == category:
+        return True
+    key = ("answers_to", category)
+    if key not in view.cache:
+        name = next((x.name for x in view.objects if x.category == category), None)
+        view.cache[key] = frozenset() if name is None else frozenset(
+            x.category for x in view.objects if x.name.endswith(" " + name))
+    return o.category in view.cache[key]
+
+
 @op("filter")
 def _filter(view: ViewFacts, node: Node, ids: list[int]) -> list[int]:
-    """Objects of the node's category and colour (either may be None: any). Fails on a barely visible match."""
-    out = [i for i in ids if node.get("category") in (None, view.objects[i].category)
+    """Objects answering to the node's category name (``answers_to``) in its colour (either may
+    be None: any). Fails on a barely visible match."""
+    out = [i for i in ids if answers_to(view, view.objects[i], node.get("category"))
            and node.get("color") in (None, view.objects[i].color)]
     if any(view.objects[i].status != "visible" for i in out):
         raise ProgramError(f"a barely visible {node.get('category') or 'object'} makes the description unsafe")

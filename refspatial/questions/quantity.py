@@ -8,7 +8,7 @@ from ..relations import ViewFacts
 from .balance import QUANTITY_WEIGHTS, weighted_index
 from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
-from .program import Node, ProgramError, execute
+from .program import Node, ProgramError, answers_to, execute
 
 ONE_OBJECT = ("depth", "camera_distance", "height", "width", "rotate_horizontal", "rotate_vertical")
 TWO_OBJECTS = ("distance_between", "centre_distance", "angle_between")
@@ -53,7 +53,9 @@ def _words(kind: str, value: float) -> str:
 
 def _count(views, rng) -> QA | None:
     view = views["self"]
-    categories = sorted({o.category for o in view.objects if o.status != "hidden"})
+    # Not "how many boxes?" beside a tissue box: whether it counts is anyone's guess.
+    categories = sorted({o.category for o in view.objects if o.status != "hidden"
+                         and not any(answers_to(view, x, o.category) for x in view.objects if x.category != o.category)})
     if not categories:
         return None
     category = categories[int(rng.integers(len(categories)))]

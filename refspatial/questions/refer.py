@@ -21,7 +21,7 @@ from ..colour_words import reads_as
 from .balance import PREDICATE_WEIGHTS, weighted_index
 
 from ..relations import PREDICATES, ObjectFacts, ViewFacts
-from .program import ORDINAL_AXES, Node, ProgramError, execute, is_degenerate
+from .program import ORDINAL_AXES, Node, ProgramError, answers_to, execute, is_degenerate
 from .sides import SIDE_PREDICATES, side_visible
 
 MAX_RANK = 3
@@ -142,11 +142,11 @@ def colour_tells_apart(view: ViewFacts, target: ObjectFacts, category: str | Non
         # Every one the word picks out must look it: "the rearmost gray phone" counts the phones
         # a reader sees as gray, whichever of them is the target.
         namesakes = [o for o in view.objects if o.color == target.color and o.status != "hidden"
-                     and category in (None, o.category)]
+                     and answers_to(view, o, category)]
         view.cache[key] = all(o.lab is None or reads_as(o.lab, o.color, COLOUR_MARGIN) for o in namesakes) and all(
             o.lab is None or target.lab is None or delta_e(o.lab, target.lab) >= DISTINCT_DELTA_E
             for o in view.objects
-            if o.object_id != target.object_id and o.status != "hidden" and category in (None, o.category)
+            if o.object_id != target.object_id and o.status != "hidden" and answers_to(view, o, category)
             and o.color != target.color)
     return view.cache[key]
 
@@ -167,7 +167,7 @@ def _simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
 
 def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
     """Ordinals over the head's candidates, axes with the most spread first."""
-    ids = [o.object_id for o in view.objects if o.category == head.category
+    ids = [o.object_id for o in view.objects if answers_to(view, o, head.category)
            and head.color in (None, o.color) and o.status != "hidden"]
     if len(ids) < 2:
         return []
@@ -270,7 +270,7 @@ def _head(view: ViewFacts, category: str | None, color: str | None) -> int:
     key = ("head", category, color)
     if key not in view.cache:
         ids = [o.object_id for o in view.objects if o.status != "hidden"
-               and category in (None, o.category) and color in (None, o.color)]
+               and answers_to(view, o, category) and color in (None, o.color)]
         view.cache[key] = 0 if any(view.objects[i].status != "visible" for i in ids) else sum(1 << i for i in ids)
     return view.cache[key]
 

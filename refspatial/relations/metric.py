@@ -25,6 +25,7 @@ WIDTH_MARGIN = (0.02, 0.20)  # (absolute m, share of the wider)
 NEAR_GAP = (0.05, 0.5)  # near: footprint gap <= max(5 cm, 0.5 x mean footprint size)
 FAR_GAP = (0.25, 2.0)  # far: footprint gap >= max(25 cm, 2 x mean footprint size)
 CENTRED_DEG = 2.0  # within this, the camera needs no turn
+TILT_READINGS_DEG = 2.0  # the most a tilt after a level pan may differ from one after a turn about the camera's own axis
 
 
 def _relative(diff: float, scale: float, margin: tuple[float, float]) -> Verdict:
@@ -125,9 +126,12 @@ def thinner_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 def _gap_and_scale(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, float]:
     gap = v.footprint_gap(a, b)
-    if v.on_other_levels(a, b):  # a cup under the vase on the board above is not near it
-        (a_lo, a_hi), (b_lo, b_hi) = a.aabb_world_m[:, 2], b.aabb_world_m[:, 2]
-        lift = max(0.0, float(a_lo - b_hi), float(b_lo - a_hi))
+    # The height between their boxes counts wherever one is wholly above the other: a cup under
+    # the vase on the board above is not near it, and a bowl on the floor is 1.08 m from a pen
+    # holder on the coffee table, not the 1.03 m between their outlines on the ground (annotator).
+    (a_lo, a_hi), (b_lo, b_hi) = a.aabb_world_m[:, 2], b.aabb_world_m[:, 2]
+    lift = max(0.0, float(a_lo - b_hi), float(b_lo - a_hi))
+    if lift > 0.0:
         gap = float(np.hypot(gap, lift))
     scale = (float(a.footprint_m.max()) + float(b.footprint_m.max())) / 2
     return gap, scale
@@ -138,9 +142,10 @@ def near(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """The ground gap between footprints is small for the objects' size.
 
     True: gap <= max(5 cm, 0.5 x mean footprint size). False: gap >= max(25 cm,
-    2 x mean footprint size). Undecided in between. For objects on different levels
-    (shelf boards) the gap includes the height between their boxes. Undecided when one
-    rests on or in the other: a bottle in a basket is in it, not "close to" it.
+    2 x mean footprint size). Undecided in between. When one object's box lies wholly above
+    the other's (shelf boards, a coffee table's top and the floor) the gap includes the
+    height between them. Undecided when one rests on or in the other: a bottle in a basket
+    is in it, not "close to" it.
     """
     if v.stacked(a, b) or contained(v, a, b) is not False or contained(v, b, a) is not False:
         return None
@@ -164,8 +169,8 @@ def far(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 def distance_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity:
     """The gap between the two objects, as a person measures "the distance between" them: the
     shortest distance between them on the ground (between the meshes' own ground outlines,
-    so a round apple is round), combined with the height between their boxes when they rest
-    on different levels, in metres; 0 when they touch."""
+    so a round apple is round), combined with the height between their boxes when one lies
+    wholly above the other, in metres; 0 when they touch."""
     gap, _ = _gap_and_scale(v, a, b)
     return Quantity(float(gap), "m")
 
@@ -215,14 +220,22 @@ def rotate_horizontal(v: ViewFacts, a: ObjectFacts) -> Quantity | None:
 def rotate_vertical(v: ViewFacts, a: ObjectFacts) -> Quantity | None:
     """How far the camera must tilt to face the object's centre once it has panned to it,
     degrees; positive = tilt up: the object's elevation seen from the camera less the camera's
-    own pitch. None when already within 2 degrees, or unseen.
+    own pitch. None when already within 2 degrees, or unseen, and when a turn about the camera's
+    own tilted up-axis would leave another tilt (differing by more than TILT_READINGS_DEG or in
+    direction): "after turning to face the candle" can be read either way, and for a candle at
+    the picture's edge, a little below its middle, one reading said 3 degrees up and the other
+    1 down (annotator).
     """
     ray = _world_ray(v, a)
     if ray is None:
         return None
     heading = v.T_world_cam[:3, 2]
     pitch = _elevation_deg(ray) - _elevation_deg(heading)
-    return None if abs(pitch) < CENTRED_DEG else Quantity(pitch, "deg")
+    x, y, z = _ray(v, a)  # the camera's frame: x right, y down, z forward
+    own = float(np.degrees(np.arctan2(-y, np.hypot(x, z))))
+    if abs(pitch) < CENTRED_DEG or abs(own) < CENTRED_DEG or own * pitch < 0 or abs(own - pitch) > TILT_READINGS_DEG:
+        return None
+    return Quantity(pitch, "deg")
 
 
 def _world_ray(v: ViewFacts, o: ObjectFacts) -> np.ndarray | None:
