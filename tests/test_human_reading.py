@@ -327,6 +327,46 @@ def test_a_tissue_box_is_a_box_to_a_reader():
     assert any("tissue boxes" in p for p in counted)  # the tissue boxes are counted all the same
 
 
+def test_a_turned_book_s_width_is_not_asked():
+    """A 16.8 x 23.1 cm book turned 30 degrees spans 26 cm from left to right, longer than any of
+    its sides; a reader measures the book (annotator). Squarely placed, its width is a side."""
+    from refspatial.questions.program import QUANTITIES
+
+    book = _facts({"id": 0, "category": "book", "at": [0.0, 0.2, 0.0], "size": [0.231, 0.168, 0.03]})
+    assert QUANTITIES["width"](view(book), book).value == pytest.approx(0.231)
+    turn = np.radians(30)
+    R = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    centre = np.array([0.0, 0.2])
+    turned = dataclasses.replace(book, footprint_world=(book.footprint_world - centre) @ R.T + centre)
+    assert turned.extent_along(np.array([1.0, 0.0, 0.0])) == pytest.approx(0.231 * np.cos(turn) + 0.168 * np.sin(turn))
+    assert QUANTITIES["width"](view(turned), turned) is None
+
+
+def test_the_distance_between_says_edge_to_edge():
+    """Plain "the distance between the keyboard and the stool" reads centre to centre to many (1.6 m
+    where the edges are 1.17 m apart: annotator); the gap is asked in words that say so."""
+    templates = yaml.safe_load((Path(__file__).parent.parent / "refspatial/questions/templates.yaml").read_text())
+    for t in templates["quantity"]["distance_between"]:
+        assert any(w in t for w in ("nearest", "edge", "gap", "space", "shortest")), t
+
+
+def test_a_plate_under_a_cup_is_not_in_it():
+    """A cup sunk 3 mm into a plate's dish: the plate's centre lies in the cup's cavity and its
+    bottom just under the cavity floor, but the cup rests on the plate (annotator: "the object in
+    the cup" was the plate). Nor is anything in a cup that could never pass its opening."""
+    from refspatial.scene import Cavity
+
+    plate = _facts({"id": 0, "category": "plate", "at": [0.0, 0.2, 0.0], "size": [0.2, 0.2, 0.018]})
+    cup = _facts({"id": 1, "category": "cup", "at": [0.0, 0.2, 0.003], "size": [0.077, 0.077, 0.077], "support": 0})
+    cup = dataclasses.replace(cup, cavity=Cavity("cylinder", (0.028, 0.028), 0.004, 0.076))
+    v = view(plate, cup)
+    assert PREDICATES["inside"](v, plate, cup) is False
+    assert PREDICATES["outside"](v, plate, cup) is None  # it could never go in: not worth asking
+    lid = dataclasses.replace(plate, support=TABLE)  # the same plate merely under it, not holding it
+    lifted = dataclasses.replace(cup, support=TABLE)
+    assert PREDICATES["inside"](view(lid, lifted), lid, lifted) is False  # too wide for the opening
+
+
 def test_nearer_to_the_camera_holds_in_a_straight_line_too():
     """A cup 60 cm to the side is 17 cm nearer along the viewing direction than a mug ahead, but
     only 3 cm nearer in a straight line from the lens: a person could read it either way."""

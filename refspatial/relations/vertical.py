@@ -59,10 +59,14 @@ def containment(a: ObjectFacts, container: ObjectFacts) -> Verdict:
 
     True: A's centre within 90 % of the cavity's half extents and A's bottom between
     the cavity floor - 1 cm and its rim. False: no cavity, A's centre outside the
-    container's footprint grown by 1 cm, or A's bottom over the rim by > 2 cm.
+    container's footprint grown by 1 cm, or A's bottom over the rim by > 2 cm; and whatever
+    the centres say, when the container rests on A or A could never pass its opening: a cup
+    sunk into a plate's dish has the plate's centre in its cavity, and "the object in the cup"
+    was the plate under it (annotator).
     """
     cav = container.cavity
-    if cav is None or container.pose_world is None:
+    if cav is None or container.pose_world is None or container.support == a.object_id \
+            or not _could_go_in(a, cav):
         return False
     inv = np.linalg.inv(container.pose_world)
     centre = inv[:3, :3] @ a.center_world_m + inv[:3, 3]
