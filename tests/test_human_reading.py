@@ -200,7 +200,9 @@ def test_directly_above_reads_round_things_as_round():
 
 def test_on_in_and_across_boards_are_not_near_between_or_beside():
     """A bottle in a basket is in it, not "close to" it; a block on a side table is not "between"
-    the table and a case; a candle a board up is on no side of a duck (annotator)."""
+    the table and a case; a candle a board up reads two ways beside a duck: on no side of it
+    (annotator), or on its back side, higher up (another annotator, of a toy car a board above
+    another's bonnet), so it is asked neither way."""
     from refspatial.scene import Cavity
 
     basket = dataclasses.replace(_facts({"id": 0, "category": "basket", "at": [0.0, 0.2, 0.0],
@@ -218,7 +220,8 @@ def test_on_in_and_across_boards_are_not_near_between_or_beside():
     duck = _facts({"id": 0, "category": "rubber_duck", "at": [0.0, 0.2, 0.0], "size": [0.1, 0.07, 0.08]})
     candle = _facts({"id": 1, "category": "candle", "at": [-0.15, 0.2, 0.38], "size": [0.06, 0.06, 0.1],
                      "support": -2})  # behind the duck's beak (+x), a board up
-    assert PREDICATES["on_back_side"](view(duck, candle), candle, duck) is False
+    assert PREDICATES["on_back_side"](view(duck, candle), candle, duck) is None
+    assert PREDICATES["on_facing_side"](view(duck, candle), candle, duck) is None
     level = dataclasses.replace(candle, aabb_world_m=candle.aabb_world_m - [0, 0, 0.38], support=TABLE)
     assert PREDICATES["on_back_side"](view(duck, level), level, duck) is True
 
@@ -365,6 +368,20 @@ def test_a_plate_under_a_cup_is_not_in_it():
     lid = dataclasses.replace(plate, support=TABLE)  # the same plate merely under it, not holding it
     lifted = dataclasses.replace(cup, support=TABLE)
     assert PREDICATES["inside"](view(lid, lifted), lid, lifted) is False  # too wide for the opening
+
+
+def test_at_a_corner_needs_the_corner_in_the_picture():
+    """The camera looks at the table from its front: the front corners are out of frame, so a
+    mug 5 cm from both edges there is not said to be at a corner (annotator: "the pen holder at a
+    corner" was one 9 and 16 cm in from a corner out of frame). At a back corner it is; 25 cm in
+    from one it is asked neither way (foreshortened, it looks at the corner); at the centre it
+    is not at one, which needs no corner in view."""
+    from helpers import obj
+
+    at = PREDICATES["at_corner"]
+    for x, y, verdict in ((-0.55, -0.35, None), (-0.55, 0.35, True), (-0.31, 0.35, None), (0.0, 0.0, False)):
+        mug = obj(0, "mug", "red", x, y)
+        assert at(view(mug), mug) is verdict, (x, y)
 
 
 def test_nearer_to_the_camera_holds_in_a_straight_line_too():

@@ -97,7 +97,7 @@ PLATE = obj(2, "plate", "white", 0.00, 0.02, size=0.22, height=0.02, is_support=
 APPLE = obj(3, "apple", "red", 0.00, 0.02, size=0.07, height=0.07, z=0.02, support=2)
 BOWL = obj(4, "bowl", "green", 0.00, 0.30, size=0.16, height=0.07, cavity=BOWL_CAVITY)
 LEMON = obj(5, "lemon", "yellow", 0.00, 0.30, size=0.05, height=0.05, z=0.012, support=4)
-BOTTLE = obj(6, "bottle", "green", -0.52, -0.33, size=0.07, height=0.25)  # near a table corner
+BOTTLE = obj(6, "bottle", "green", -0.52, 0.33, size=0.07, height=0.25)  # near a table corner (a back one: in the picture)
 CAN = obj(7, "can", "silver", -0.21, 0.00, size=0.06, height=0.12)  # touching the mug's +x (front) side
 SCENE = view(MUG, CUP, PLATE, APPLE, BOWL, LEMON, BOTTLE, CAN, contacts={(0, 7), (2, 3), (4, 5)})
 
