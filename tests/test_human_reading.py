@@ -384,6 +384,35 @@ def test_at_a_corner_needs_the_corner_in_the_picture():
         assert at(view(mug), mug) is verdict, (x, y)
 
 
+def test_a_tray_under_a_can_is_on_no_one_side_of_it():
+    """A can standing in a tray 35 x 25 cm: the tray reaches past it on every side, so "is the tray
+    on the label side of the can?" has no answer (annotator)."""
+    tray = _facts({"id": 0, "category": "tray", "at": [0.0, 0.2, 0.0], "size": [0.35, 0.25, 0.03]})
+    can = _facts({"id": 1, "category": "can", "at": [0.01, 0.18, 0.01], "size": [0.07, 0.07, 0.12], "support": 0})
+    v = view(tray, can)
+    assert PREDICATES["on_facing_side"](v, tray, can) is None and PREDICATES["on_back_side"](v, tray, can) is None
+
+
+def test_no_rank_from_the_front_across_shelf_boards():
+    """Four pen holders on three boards: "the second from the front" by the shelf's depth was the
+    nearest to the camera (annotator). Within one board the rank stands."""
+    from refspatial.questions.program import ProgramError, execute
+
+    def holder(i: int, x: float, y: float, board: int):
+        z = {TABLE: 0.0, -2: 0.38, -3: 0.76}[board]
+        return _facts({"id": i, "category": "pen_holder", "at": [x, y, z], "size": [0.08, 0.08, 0.1], "support": board})
+
+    program = [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": "pen_holder", "color": None},
+               {"op": "ordinal", "inputs": [1], "axis": "front_back", "end": "front", "rank": 2}]
+    mixed = dataclasses.replace(view(holder(0, -0.3, 0.0, TABLE), holder(1, 0.0, 0.15, -2), holder(2, 0.3, 0.3, -3)),
+                                table_levels_m=(0.38, 0.76))
+    with pytest.raises(ProgramError, match="across shelf boards"):
+        execute(program, mixed)
+    one = dataclasses.replace(view(holder(0, -0.3, 0.0, TABLE), holder(1, 0.0, 0.15, TABLE), holder(2, 0.3, 0.3, TABLE)),
+                              table_levels_m=(0.38, 0.76))
+    assert execute(program, one)[-1] == 1
+
+
 def test_nearer_to_the_camera_holds_in_a_straight_line_too():
     """A cup 60 cm to the side is 17 cm nearer along the viewing direction than a mug ahead, but
     only 3 cm nearer in a straight line from the lens: a person could read it either way."""

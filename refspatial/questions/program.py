@@ -136,6 +136,10 @@ def _ordinal(view: ViewFacts, node: Node, ids: list[int]) -> int:
     if node["axis"] == "left_right":
         _check_picture_order(view, order, rank, from_left=node["end"] == "left")
     if node["axis"] == "front_back" and view.table_levels_m:
+        # Across boards "the second pen holder from the front" reads by the shelf's depth or by
+        # nearness to the viewer, and they disagree (annotator): a rank only within one board.
+        if view.on_other_levels(*(view.objects[i] for i in order)):
+            raise ProgramError("front-to-back ranks across shelf boards read two ways")
         _check_shelf_front(view, order, rank, margin, from_front=node["end"] == "front")
     return order[rank - 1]
 

@@ -60,7 +60,7 @@ def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     when the two rest on different levels (shelf boards): a toy car a board up and off to the
     bonnet's side is on that side for some readers and on no side for others (annotator).
     """
-    if v.on_other_levels(a, b):
+    if v.on_other_levels(a, b) or v.stacked(a, b):  # a tray under a can is on all its sides at once
         return None
     return _within(_side_angle(a, b), FACING_DEG, NOT_FACING_DEG)
 
@@ -68,8 +68,8 @@ def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 @predicate("on_back_side", family="face_back", arity=2, frame="object", inverse=None)
 def on_back_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A lies on the side of B opposite its front: the facing-side test mirrored (angle measured
-    from -front); undecided across shelf boards, as there."""
-    if v.on_other_levels(a, b):
+    from -front); undecided across shelf boards and for stacked things, as there."""
+    if v.on_other_levels(a, b) or v.stacked(a, b):
         return None
     angle = _side_angle(a, b)
     return _within(None if angle is None else 180.0 - angle, FACING_DEG, NOT_FACING_DEG)
