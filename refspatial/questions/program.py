@@ -242,11 +242,10 @@ WIDTH_AGREES = (0.01, 0.08)
 
 def _width(v: ViewFacts, o) -> Quantity | None:
     """The object's extent along the viewer's right axis, when it is also one of its own sides."""
-    if o.footprint_world is None:
+    sides = o.footprint_sides_m
+    if sides is None:
         return None
     span = o.extent_along(v.right_axis)
-    corners = np.asarray(o.footprint_world)
-    sides = np.linalg.norm(corners[1:3] - corners[0:2], axis=1)
     if not any(abs(span - side) <= max(WIDTH_AGREES[0], WIDTH_AGREES[1] * side) for side in sides):
         return None
     return Quantity(span, "m")

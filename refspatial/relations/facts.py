@@ -84,6 +84,14 @@ class ObjectFacts:
         return self.aabb_world_m[1, :2] - self.aabb_world_m[0, :2]
 
     @property
+    def footprint_sides_m(self) -> tuple[float, float] | None:
+        """The oriented footprint's two side lengths, shorter first (None without a footprint)."""
+        if self.footprint_world is None:
+            return None
+        c = self.footprint_world
+        return tuple(sorted((float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1])))))
+
+    @property
     def height_m(self) -> float:
         return float(self.aabb_world_m[1, 2] - self.aabb_world_m[0, 2])
 

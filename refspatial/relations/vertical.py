@@ -117,10 +117,9 @@ def outside(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 def _could_go_in(a: ObjectFacts, cav) -> bool:
     """A's footprint, side by side, is no larger than the container's opening."""
-    if a.footprint_world is None:
+    sides = a.footprint_sides_m
+    if sides is None:
         return True
-    c = a.footprint_world
-    sides = sorted((float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1]))))
     hx, hy = cav.half_extents_m
     opening = sorted((2 * hx, 2 * hx) if cav.shape == "cylinder" else (2 * hx, 2 * hy))
     return sides[0] <= opening[0] and sides[1] <= opening[1]
