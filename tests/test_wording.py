@@ -146,6 +146,22 @@ def test_side_rules_by_feature():
     assert not side_visible(v, dataclasses.replace(facing, visible_px=int(0.003 * v.seg.size)))
 
 
+def test_a_keyboard_s_side_is_named_only_when_its_typist_side_faces_the_camera():
+    """A keyboard's keys read the same from either long side, so readers take the side nearest
+    them for its front (annotator, read 20): its side is named only while it faces the camera."""
+    side = yaml.safe_load(CATALOGUE.read_text(encoding="utf-8"))["categories"]["keyboard"]["front"]["side"]
+    v = _can_scene(1.0)  # the camera is at y = -1
+
+    def named(front):
+        return side_visible(v, dataclasses.replace(obj(9, "keyboard", "white", 0, 0, front=front), front_side=side))
+    assert side != "front", "'the front of the keyboard' reads as the side nearest the viewer"
+    assert named((0.0, -1.0, 0.0)) and named((0.5, -1.0, 0.0))
+    assert not named((0.0, 1.0, 0.0)) and not named((1.0, 0.0, 0.0))
+    phrases = {Phrasebook.get().relation_phrase(p, False, np.random.default_rng(s), side=side)
+               for p in ("on_facing_side", "on_back_side") for s in range(20)}
+    assert "on the space bar side of" in phrases and "on the side opposite the space bar of" in phrases
+
+
 def test_every_catalogue_side_has_a_visibility_rule_and_symmetric_things_have_none():
     categories = yaml.safe_load(CATALOGUE.read_text(encoding="utf-8"))["categories"]
     sides = {name: c["front"]["side"] for name, c in categories.items()}
