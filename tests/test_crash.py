@@ -23,9 +23,9 @@ COMMAND = ["generate", "--recipe", str(TINY), "--scenes", "8", "--seed", "7", "-
            "--workers", "2"]
 
 
-def start(out: Path) -> subprocess.Popen:
+def start(out: Path, command: list[str] = COMMAND) -> subprocess.Popen:
     """`refspatial generate` in its own process group, as a shell would start it in the foreground."""
-    return subprocess.Popen([sys.executable, "-m", "refspatial.cli", *COMMAND, "--out", str(out)],
+    return subprocess.Popen([sys.executable, "-m", "refspatial.cli", *command, "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
                             preexec_fn=_sigint_as_in_a_terminal)
 
@@ -84,14 +84,17 @@ def test_kill_9_at_any_moment_then_the_same_command_finishes_identically(tiny_da
 
 def test_ctrl_c_keeps_complete_shards_and_says_how_to_finish(tmp_path):
     out = tmp_path / "ds"
-    proc = start(out)
+    # Four shards on two workers: when the first is complete at most two more are under way and
+    # the fourth waits, so Ctrl-C always leaves work undone (with three, both shards still under
+    # way could finish before the signal landed, and did once).
+    proc = start(out, [*COMMAND[:COMMAND.index("--scenes") + 1], "12", *COMMAND[COMMAND.index("--scenes") + 2:]])
     wait_for(proc, lambda: sidecars(out) >= 1 and partial_exists(out))
     os.killpg(proc.pid, signal.SIGINT)  # what a terminal sends the whole group
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert "complete shards are kept, run the same command to finish" in err
     assert err.rstrip().splitlines()[-2].startswith("stopped: ")  # the summary, then main's line
-    assert 1 <= len(complete_shards_only(out)) < 3  # and no partial file left behind
+    assert 1 <= len(complete_shards_only(out)) < 4  # and no partial file left behind
 
 
 def segfault_in_shard_1(job, on_scene):
