@@ -310,6 +310,30 @@ def test_the_distance_to_a_thing_on_furniture_counts_the_height_between():
     assert PREDICATES["distance_between"](view(bowl, beside), bowl, beside).value == pytest.approx(0.3 - 0.09 - 0.04)
 
 
+def test_the_distance_to_furniture_beside_a_thing_is_not_asked():
+    """A pot on the floor 58 cm from a side table's top, seen from above, is 67 cm from its base
+    (annotator): beside furniture with a raised top the shortest distance depends on which part
+    one measures from. Asked when one is wholly above the other, or between two low things."""
+    table = dataclasses.replace(
+        _facts({"id": 0, "category": "side_table", "at": [0.0, 0.0, 0.0], "size": [0.5, 0.5, 0.6]}), is_support=True)
+    pot = _facts({"id": 1, "category": "pot", "at": [0.0, 0.88, 0.0], "size": [0.2, 0.2, 0.11]})
+    assert PREDICATES["distance_between"](view(table, pot), table, pot) is None
+    cup = _facts({"id": 2, "category": "cup", "at": [0.0, 0.0, 0.6], "size": [0.08, 0.08, 0.1], "support": 0})
+    assert PREDICATES["distance_between"](view(table, pot, cup), pot, cup).value > 0.5  # neither is furniture
+    lamp = _facts({"id": 3, "category": "lamp", "at": [0.0, 1.5, 0.0], "size": [0.3, 0.3, 0.6]})
+    assert PREDICATES["distance_between"](view(table, lamp), table, lamp) is None
+    tray = dataclasses.replace(
+        _facts({"id": 4, "category": "tray", "at": [0.0, 0.88, 0.0], "size": [0.3, 0.2, 0.03]}), is_support=True)
+    assert PREDICATES["distance_between"](view(tray, pot), tray, pot) is not None  # a low support has no raised top
+
+
+def test_a_fruit_named_like_a_colour_comes_only_in_its_colour(catalogue):
+    """A green "orange" reads as a lime, and "the orange" then sends a reader to the orange rubber
+    duck (annotator, read 21); a green lemon is a lime."""
+    assert catalogue.categories["orange"].colors == ("orange",)
+    assert catalogue.categories["lemon"].colors == ("yellow",)
+
+
 def test_a_tissue_box_is_a_box_to_a_reader():
     """A green box and a pink tissue box on one board: "the box" could be either to anyone
     looking (annotator), so it is never the whole description, and boxes are not counted."""

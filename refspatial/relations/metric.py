@@ -22,6 +22,7 @@ APPARENT_MARGIN = 0.10
 # 16 cm long does not look smaller than a 9 cm jar, whatever the volumes say (annotator).
 LONGEST_MARGIN = 0.10
 WIDTH_MARGIN = (0.02, 0.20)  # (absolute m, share of the wider)
+RAISED_TOP_M = 0.25  # a support this tall is furniture with a raised top (side table, stool, cabinet)
 NEAR_GAP = (0.05, 0.5)  # near: footprint gap <= max(5 cm, 0.5 x mean footprint size)
 FAR_GAP = (0.25, 2.0)  # far: footprint gap >= max(25 cm, 2 x mean footprint size)
 CENTRED_DEG = 2.0  # within this, the camera needs no turn
@@ -166,13 +167,26 @@ def far(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 @predicate("distance_between", family="distance", arity=2, frame="world", inverse="distance_between",
            kind="measure", symmetric=True)
-def distance_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity:
+def distance_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity | None:
     """The gap between the two objects, as a person measures "the distance between" them: the
     shortest distance between them on the ground (between the meshes' own ground outlines,
     so a round apple is round), combined with the height between their boxes when one lies
-    wholly above the other, in metres; 0 when they touch."""
+    wholly above the other, in metres; 0 when they touch.
+
+    Undecided beside furniture with a raised top, unless one is wholly above the other or they
+    touch: the shortest distance from a pot on the floor to a side table is to its base (67 cm),
+    while the outlines seen from above meet the top's rim (58 cm), 50 cm higher (annotator)."""
     gap, _ = _gap_and_scale(v, a, b)
+    if gap > 0.0 and _beside_raised_top(a, b):
+        return None
     return Quantity(float(gap), "m")
+
+
+def _beside_raised_top(a: ObjectFacts, b: ObjectFacts) -> bool:
+    """Whether one is furniture with a raised top and the other is level with some of it."""
+    (a_lo, a_hi), (b_lo, b_hi) = a.aabb_world_m[:, 2], b.aabb_world_m[:, 2]
+    level = a_lo < b_hi and b_lo < a_hi
+    return level and any(o.is_support and o.height_m >= RAISED_TOP_M for o in (a, b))
 
 
 def centre_distance(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity:
