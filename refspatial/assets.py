@@ -28,9 +28,10 @@ from .mesh_import import (
     import_mesh,
     load_annotation,
 )
-from .looks import dress, load_looks
+from .looks import load_looks, look_texture, texture_layout
 from .paths import assets_dir
 from .scene import Asset, Cavity, MeshData
+from .shape_bank import banked, variant_params
 from .shapes import BUILDER_LIMITS, BUILDER_PARAMS, BUILDERS
 from .shapes.geometry import FinalMesh
 
@@ -370,29 +371,73 @@ def evaluate(expr: str, params: dict[str, float]) -> float:
 # ---------------------------------------------------------------- sampling
 
 
-def build_asset(catalogue: Catalogue, category: str, rng: np.random.Generator, color: str | None = None) -> Asset:
+def build_asset(catalogue: Catalogue, category: str, rng: np.random.Generator, color: str | None = None,
+                shape_variants: int = 0) -> Asset:
     """Sample one instance of a category. The colour index is drawn even when `color` is given,
-    so pinning a colour never moves the material or any later draw."""
+    so pinning a colour never moves the material or any later draw. With ``shape_variants``
+    (a recipe's `objects.shape_variants`), the shape is one of that many fixed variants of the
+    category, built once per process (``refspatial.shape_bank``)."""
     spec = catalogue.categories.get(category)
     if spec is None:
         raise ValueError(f"unknown category {category!r}; the catalogue has {', '.join(sorted(catalogue.categories))}")
     if color is not None and color not in spec.colors:
         raise ValueError(f"colour {color!r} is not allowed for {category!r}; allowed: {', '.join(spec.colors)}")
-    params = {n: float(rng.uniform(lo, hi)) for n, (lo, hi) in sorted(spec.params.items())}
+    if shape_variants:
+        params = variant_params(category, spec.params, int(rng.integers(shape_variants)))
+    else:
+        params = {n: float(rng.uniform(lo, hi)) for n, (lo, hi) in sorted(spec.params.items())}
     drawn = spec.colors[int(rng.integers(len(spec.colors)))]
     material = spec.materials[int(rng.integers(len(spec.materials)))]
     color = drawn if color is None else color
-    visual, parts = _geometry(spec, params)
     flat = spec.mesh.rgb if spec.mesh is not None and spec.mesh.rgb is not None else catalogue.colors[color]
     texture = spec.mesh.texture if spec.mesh is not None else None
+    # An imported mesh is only scaled (no building to save); a procedural shape of a variant is banked.
+    bank = shape_variants > 0 and spec.mesh is None
+    visual, parts = _shape(spec, params, bank)
     if visual.texcoords is None:  # an imported mesh brings its own texture; procedural ones get a look
-        visual, texture = dress(load_looks(), category, material, flat, params, visual)
+        looks = load_looks()
+        texture = look_texture(looks, category, material, flat, params)
+        if texture is not None:
+            visual = _laid_out(looks, spec, params, visual, bank)
     return Asset(
         category=category, name=spec.name, color=color, rgba=(*flat, 1.0), material=material,
         visual=visual, collision=parts, texture=texture, front_local=spec.front_vector, front_side=spec.front_side,
         params=params,
         licence=spec.licence, cavity=spec.cavity.evaluate(params) if spec.cavity else None, support=spec.support,
     )
+
+
+def build_variants(catalogue: Catalogue, categories: list[str], variants: int) -> int:
+    """Build every shape variant of ``categories`` (and its texture layouts) into the
+    per-process bank, and return how many shapes that is. A warm-up: a long run's scenes find
+    every variant built (benchmarks call it to measure that steady state); records are the same
+    with or without it."""
+    looks, count = load_looks(), 0
+    for category in sorted(set(categories)):
+        spec = catalogue.categories[category]
+        if spec.mesh is not None:
+            continue
+        for variant in range(variants):
+            params = variant_params(category, spec.params, variant)
+            visual, _ = _shape(spec, params, bank=True)
+            if any(looks.choices(category, m) for m in spec.materials):
+                _laid_out(looks, spec, params, visual, bank=True)
+            count += 1
+    return count
+
+
+def _shape(spec: CategorySpec, params: dict[str, float], bank: bool) -> tuple[MeshData, tuple[MeshData, ...]]:
+    if not bank:
+        return _geometry(spec, params)
+    return banked((spec.key, spec.builder, tuple(sorted(params.items()))), lambda: _geometry(spec, params))
+
+
+def _laid_out(looks, spec: CategorySpec, params: dict[str, float], visual: MeshData, bank: bool) -> MeshData:
+    """The visual mesh with its category's texture coordinates (banked with the shape)."""
+    if not bank:
+        return texture_layout(looks, spec.key, visual)
+    key = (spec.key, spec.builder, tuple(sorted(params.items())), looks.placement(spec.key))
+    return banked(key, lambda: texture_layout(looks, spec.key, visual))
 
 
 def _geometry(spec: CategorySpec, params: dict[str, float]) -> tuple[MeshData, tuple[MeshData, ...]]:

@@ -82,16 +82,18 @@ def category_pool(recipe: Recipe, catalogue: Catalogue, section: str = "objects"
 
 def _sample_assets(recipe: Recipe, catalogue: Catalogue, rng: np.random.Generator) -> list[Asset]:
     spec = recipe["objects"]
-    return _draw(catalogue, category_pool(recipe, catalogue), spec["count"], spec["repeat_category"], rng)
+    return _draw(catalogue, category_pool(recipe, catalogue), spec["count"], spec["repeat_category"], rng,
+                 recipe.option("objects", "shape_variants"))
 
 
 def _sample_furniture(recipe: Recipe, catalogue: Catalogue, rng: np.random.Generator) -> list[Asset]:
     pool = category_pool(recipe, catalogue, "furniture")
-    return _draw(catalogue, pool, recipe.option("furniture", "count"), FURNITURE_REPEAT, rng)
+    return _draw(catalogue, pool, recipe.option("furniture", "count"), FURNITURE_REPEAT, rng,
+                 recipe.option("objects", "shape_variants"))
 
 
 def _draw(catalogue: Catalogue, pool: list[str], count: list[int], repeat: float,
-          rng: np.random.Generator) -> list[Asset]:
+          rng: np.random.Generator, shape_variants: int = 0) -> list[Asset]:
     n = int(rng.integers(count[0], count[1] + 1))
     chosen: list[str] = []
     for _ in range(n):
@@ -100,7 +102,7 @@ def _draw(catalogue: Catalogue, pool: list[str], count: list[int], repeat: float
             chosen.append(chosen[int(rng.integers(len(chosen)))])
         else:
             chosen.append(pool[int(rng.integers(len(pool)))])
-    return [build_asset(catalogue, c, rng) for c in chosen]
+    return [build_asset(catalogue, c, rng, shape_variants=shape_variants) for c in chosen]
 
 
 def _sample_table(recipe: Recipe, rng: np.random.Generator) -> Table:

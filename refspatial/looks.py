@@ -132,23 +132,26 @@ def _placement(where: str, category: str, value: Any, names) -> Placement:
 # ---------------------------------------------------------------- objects
 
 
-def dress(looks: Looks, category: str, material: str, rgb: tuple[float, float, float], params: dict[str, float],
-          visual: MeshData) -> tuple[MeshData, Texture | None]:
-    """The visual mesh with texture coordinates, and its texture, for one object."""
+def look_texture(looks: Looks, category: str, material: str, rgb: tuple[float, float, float],
+                 params: dict[str, float]) -> Texture | None:
+    """One object's texture (None where its category and material have no look)."""
     choices = looks.choices(category, material)
     if not choices:
-        return visual, None
+        return None
     token = stable_int("look", category, material, *(f"{k}={v:.6f}" for k, v in sorted(params.items())))
     look = looks.looks[choices[token % len(choices)]]
     seed = (token >> 8) % PATTERN_SEEDS
     image = textures.make(look.generator, look.params, rgb, seed, look.size)
     key = f"{look.name}/{seed}/" + "-".join(f"{c:.3f}" for c in rgb)
+    return Texture(key, image)
+
+
+def texture_layout(looks: Looks, category: str, visual: MeshData) -> MeshData:
+    """The visual mesh with its category's texture coordinates (the same for every look)."""
     p = looks.placement(category)
     if p.projection == "box":
-        mesh = uv.box(visual, p.tile_m, np.array(p.face) if p.face else None, p.face_cos)
-    else:
-        mesh = uv.PROJECTIONS[p.projection](visual)
-    return mesh, Texture(key, image)
+        return uv.box(visual, p.tile_m, np.array(p.face) if p.face else None, p.face_cos)
+    return uv.PROJECTIONS[p.projection](visual)
 
 
 def texture_bank(looks: Looks, categories: dict, colors: dict[str, tuple[float, float, float]]) -> int:

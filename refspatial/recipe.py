@@ -212,6 +212,8 @@ OPTIONAL: dict[str, dict[str, tuple[Callable[[Any], str | None], Any]]] = {
     },
     "objects": {
         "on_furniture": (_scalar(0, 1), 0.0),  # chance that an object goes on top of a piece of furniture
+        # fixed shapes per procedural category, built once per process (shape_bank.py); 0: a fresh shape per object
+        "shape_variants": (_scalar(0, 100000, integer=True), 0),
     },
     "room": {  # walls, floor and background around the scene (room.py); a floor scene's walls stand at its edges
         "size_m": (_size_ranges, [[6.0, 8.0], [6.0, 8.0]]),

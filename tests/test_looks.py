@@ -84,8 +84,8 @@ def test_box_fit_spans_each_side_once_and_the_atlas_splits_faces() -> None:
 def test_dressing_is_a_pure_function_of_the_asset() -> None:
     spec = looks.load_looks()
     params = {"radius_m": 0.033, "height_m": 0.12}
-    a_mesh, a_tex = looks.dress(spec, "can", "metal", RED, params, _can())
-    b_mesh, b_tex = looks.dress(spec, "can", "metal", RED, params, _can())
+    a_tex, a_mesh = looks.look_texture(spec, "can", "metal", RED, params), looks.texture_layout(spec, "can", _can())
+    b_tex, b_mesh = looks.look_texture(spec, "can", "metal", RED, params), looks.texture_layout(spec, "can", _can())
     assert a_tex.key == b_tex.key and np.array_equal(a_mesh.texcoords, b_mesh.texcoords)
     assert a_tex.key.split("/")[0] in spec.categories["can"].looks
     assert len(a_mesh.face_texcoords) == len(a_mesh.faces)
