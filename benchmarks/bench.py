@@ -38,8 +38,7 @@ os.environ["LP_NUM_THREADS"] = "1"  # as in every worker process; read when the 
 import refspatial  # noqa: E402,F401
 from refspatial.assets import load_catalogue  # noqa: E402
 from refspatial.compose import SceneRejected  # noqa: E402
-from refspatial.looks import load_looks, texture_bank  # noqa: E402
-from refspatial.pipeline import STAGES, build_scene, generate_scene  # noqa: E402
+from refspatial.pipeline import STAGES, build_scene, generate_scene, warm_banks  # noqa: E402
 from refspatial.recipe import load_recipe  # noqa: E402
 from refspatial.render import PHASES, gl_info, render_views  # noqa: E402
 from refspatial.seeding import scene_seed  # noqa: E402
@@ -108,12 +107,13 @@ def main() -> None:
     print(f"recipe {recipe.name}: {cam['width']}x{cam['height']}, {cam['views']} view(s)/scene, "
           f"{recipe['questions']['per_view']} QA/view wanted, {args.scenes} scenes")
     generate_scene(recipe, catalogue, scene_seed(1, 0))  # warm-up, outside the measured seeds
-    # A long run's steady state: every texture image made once per process, as after a few
-    # hundred scenes (a 12-scene run would otherwise pay most of them inside the measured set).
+    # A long run's steady state: every texture image and shape variant made once per process, as
+    # after a few hundred scenes (a 12-scene run would otherwise pay most of them inside the
+    # measured set).
     start = time.perf_counter()
-    made = texture_bank(load_looks(), catalogue.categories, catalogue.colors)
-    print(f"per-process texture bank (warm-up, not measured below): {made} images in "
-          f"{time.perf_counter() - start:.2f} s")
+    images, shapes = warm_banks(recipe, catalogue)
+    print(f"per-process texture and shape banks (warm-up, not measured below): {images} images, {shapes} shapes "
+          f"({recipe.option('objects', 'shape_variants')} a category) in {time.perf_counter() - start:.2f} s")
     scenes = bare_scenes(recipe, catalogue, args.scenes)
     # Bare renders bracket the end-to-end run: a shared machine's speed drifts by tens of
     # per cent over a minute, and the ratio should not depend on which side the drift hit.

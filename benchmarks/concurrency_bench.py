@@ -2,7 +2,7 @@
 
     python benchmarks/concurrency_bench.py [--workers 1 8 16] [--scenes 8] [--recipe tabletop]
 
-For each K, K spawned processes warm up (imports, GL context, texture bank), wait at a barrier,
+For each K, K spawned processes warm up (imports, GL context, texture and shape banks), wait at a barrier,
 then each writes one shard of --scenes scenes with the real shard code. Printed per K: records/s
 of all K together (records over the slowest worker's wall time, start-up excluded) and each
 stage's mean ms per record across the workers. A stage whose cost grows with K is contended:
@@ -25,15 +25,14 @@ def _worker(k: int, n: int, recipe_name: str, out: str, barrier, results) -> Non
     os.environ.setdefault("MUJOCO_GL", "egl")
     os.environ["LP_NUM_THREADS"] = "1"
     from refspatial.assets import load_catalogue
-    from refspatial.looks import load_looks, texture_bank
-    from refspatial.pipeline import generate_scene
+    from refspatial.pipeline import generate_scene, warm_banks
     from refspatial.recipe import load_recipe
     from refspatial.seeding import scene_seed
     from refspatial.shards import ShardJob, run_shard
 
     recipe, catalogue = load_recipe(recipe_name), load_catalogue()
     generate_scene(recipe, catalogue, scene_seed(1, k))  # GL context, first-call costs
-    texture_bank(load_looks(), catalogue.categories, catalogue.colors)
+    warm_banks(recipe, catalogue)
     job = ShardJob(k, k * n, (k + 1) * n, Path(out), recipe, catalogue, base_seed=0)
     barrier.wait()
     start = time.perf_counter()
