@@ -437,6 +437,55 @@ def test_no_rank_from_the_front_across_shelf_boards():
     assert execute(program, one)[-1] == 1
 
 
+def test_no_rank_from_the_side_past_the_first_across_shelf_boards():
+    """Cans on two boards: "the third can from the right" was a can on the top board whose place
+    across the view fell between those of the middle board's row, which a reader counts alone
+    (annotator, read 22). Across boards only the rightmost is asked; within a board any rank."""
+    from refspatial.questions.program import ProgramError, execute
+
+    def can(i: int, x: float, board: int):
+        z = {TABLE: 0.0, -2: 0.38}[board]
+        return _facts({"id": i, "category": "can", "at": [x, 0.3, z], "size": [0.07, 0.07, 0.12], "support": board})
+
+    def nth(rank: int):
+        return [{"op": "scene"}, {"op": "filter", "inputs": [0], "category": "can", "color": None},
+                {"op": "ordinal", "inputs": [1], "axis": "left_right", "end": "right", "rank": rank}]
+    cans = (can(0, -0.45, TABLE), can(1, -0.15, TABLE), can(2, 0.15, -2), can(3, 0.45, TABLE))
+    mixed = dataclasses.replace(view(*cans), table_levels_m=(0.38,))
+    with pytest.raises(ProgramError, match="across shelf boards"):
+        execute(nth(2), mixed)
+    assert execute(nth(1), mixed)[-1] == 3
+    row = dataclasses.replace(view(*cans[:2], can(2, 0.15, TABLE), cans[3]), table_levels_m=(0.38,))
+    assert execute(nth(2), row)[-1] == 2
+
+
+def test_a_mug_is_a_cup_to_a_reader():
+    """"The cup that is not in contact with the pot" beside a black mug whose handle was black on
+    black: a reader saw two cups (annotator, read 22). Our cups have no handle: not mugs."""
+    from refspatial.questions.program import answers_to
+
+    mug = _facts({"id": 0, "category": "mug", "at": [0.0, 0.2, 0.0], "size": [0.08, 0.08, 0.1]})
+    cup = _facts({"id": 1, "category": "cup", "at": [0.3, 0.2, 0.0], "size": [0.08, 0.08, 0.1]})
+    v = view(mug, cup)
+    assert answers_to(v, mug, "cup") and not answers_to(v, cup, "mug")
+
+
+def test_a_basket_around_a_mug_is_on_no_one_side_of_it():
+    """A black mug standing in a basket, their centres 1.6 cm apart (support not recorded as the
+    basket): the basket is on every side of it, and its walls hide the handle besides
+    (annotator, read 22: "the basket on the side facing away from the handle of the black mug")."""
+    from refspatial.scene import Cavity
+
+    basket = dataclasses.replace(
+        _facts({"id": 0, "category": "basket", "at": [-0.209, 0.132, 0.0], "size": [0.3, 0.25, 0.12]}),
+        cavity=Cavity("box", (0.14, 0.115), 0.01, 0.12))
+    mug = _facts({"id": 1, "category": "mug", "at": [-0.214, 0.116, 0.01], "size": [0.11, 0.08, 0.1]})
+    v = view(basket, mug)
+    assert PREDICATES["on_back_side"](v, basket, mug) is None and PREDICATES["on_facing_side"](v, basket, mug) is None
+    apart = _facts({"id": 1, "category": "mug", "at": [0.3, 0.116, 0.0], "size": [0.11, 0.08, 0.1]})
+    assert PREDICATES["on_facing_side"](view(basket, apart), basket, apart) is not None
+
+
 def test_nearer_to_the_camera_holds_in_a_straight_line_too():
     """A cup 60 cm to the side is 17 cm nearer along the viewing direction than a mug ahead, but
     only 3 cm nearer in a straight line from the lens: a person could read it either way."""

@@ -12,9 +12,12 @@ answer ever rests on one.
 
 from __future__ import annotations
 
+from functools import lru_cache
+from pathlib import Path
 from typing import Any, Callable, Mapping
 
 import numpy as np
+import yaml
 
 from ..relations import PREDICATES, Quantity, ViewFacts
 from ..relations.directional import DEPTH_MARGIN_M, SHELF_INWARD
@@ -31,6 +34,7 @@ class ProgramError(Exception):
     """The program does not pick out a definite answer on this view."""
 
 
+TEMPLATES = Path(__file__).with_name("templates.yaml")
 OPS: dict[str, Callable[..., Value]] = {}
 SCENE_OPS: set[str] = set()  # operations that read every view (passed as the node's "_views")
 
@@ -53,17 +57,24 @@ def _scene(view: ViewFacts, node: Node) -> list[int]:
 
 def answers_to(view: ViewFacts, o, category: str | None) -> bool:
     """Whether a person would count the object among things called by the category's name: any
-    object for None, its own category, and any kind of it whose name ends in that name. A tissue
-    box is a box to anyone looking, so "the box" beside one is ambiguous (annotator); a plant pot
-    is a pot."""
+    object for None, its own category, any kind of it whose name ends in that name, and any
+    category templates.yaml says is also called so. A tissue box is a box to anyone looking, so
+    "the box" beside one is ambiguous (annotator); a plant pot is a pot; a mug is a cup."""
     if category is None or o.category == category:
         return True
     key = ("answers_to", category)
     if key not in view.cache:
         name = next((x.name for x in view.objects if x.category == category), None)
         view.cache[key] = frozenset() if name is None else frozenset(
-            x.category for x in view.objects if x.name.endswith(" " + name))
+            x.category for x in view.objects
+            if x.name.endswith(" " + name) or name in _also_called().get(x.category, ()))
     return o.category in view.cache[key]
+
+
+@lru_cache(maxsize=1)
+def _also_called() -> dict[str, tuple[str, ...]]:
+    table = yaml.safe_load(TEMPLATES.read_text(encoding="utf-8"))["also_called"]
+    return {category: tuple(names) for category, names in table.items()}
 
 
 @op("filter")
@@ -134,6 +145,10 @@ def _ordinal(view: ViewFacts, node: Node, ids: list[int]) -> int:
     if node["axis"] == "depth":
         _check_depth_order(view, order, rank)
     if node["axis"] == "left_right":
+        # "The third can from the right" over cans on two boards is counted along one board's row
+        # by a reader (annotator, read 22); only the extreme one reads the same either way.
+        if rank > 1 and view.table_levels_m and view.on_other_levels(*(view.objects[i] for i in order)):
+            raise ProgramError("ranks from the side across shelf boards are counted by row")
         _check_picture_order(view, order, rank, from_left=node["end"] == "left")
     if node["axis"] == "front_back" and view.table_levels_m:
         # Across boards "the second pen holder from the front" reads by the shelf's depth or by

@@ -49,6 +49,14 @@ def _within(angle: float | None, near: float, far: float) -> Verdict:
     return None
 
 
+def _no_side_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> bool:
+    """Whether neither lies on one side of the other: across shelf boards, or one on or in the
+    other. A tray under a can is on all its sides at once; so is a basket around a mug, whose
+    handle its walls hide besides (annotator, reads 20 and 22)."""
+    return (v.on_other_levels(a, b) or v.stacked(a, b)
+            or contained(v, a, b) is not False or contained(v, b, a) is not False)
+
+
 @predicate("on_facing_side", family="face_back", arity=2, frame="object", inverse=None)
 def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A lies on B's semantic front side (its handle, screen, spout, label...), in B's own frame.
@@ -60,7 +68,7 @@ def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     when the two rest on different levels (shelf boards): a toy car a board up and off to the
     bonnet's side is on that side for some readers and on no side for others (annotator).
     """
-    if v.on_other_levels(a, b) or v.stacked(a, b):  # a tray under a can is on all its sides at once
+    if _no_side_between(v, a, b):
         return None
     return _within(_side_angle(a, b), FACING_DEG, NOT_FACING_DEG)
 
@@ -68,8 +76,8 @@ def on_facing_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 @predicate("on_back_side", family="face_back", arity=2, frame="object", inverse=None)
 def on_back_side(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A lies on the side of B opposite its front: the facing-side test mirrored (angle measured
-    from -front); undecided across shelf boards and for stacked things, as there."""
-    if v.on_other_levels(a, b) or v.stacked(a, b):
+    from -front); undecided across shelf boards and for stacked or nested things, as there."""
+    if _no_side_between(v, a, b):
         return None
     angle = _side_angle(a, b)
     return _within(None if angle is None else 180.0 - angle, FACING_DEG, NOT_FACING_DEG)
