@@ -169,7 +169,7 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], n_furniture: int,
     for i in order:
         asset, furniture = assets[i], i < n_furniture
         on_host = None if furniture else _on_host(i, asset, hosts, spec, rng)
-        if on_host is None and tops:
+        if on_host is None and tops and not furniture:  # furniture stands on the floor, never on a top
             on_host = _on_top(i, asset, tops, recipe.option("objects", "on_furniture"), spec, rng)
         if on_host is not None:
             placed.append(on_host)

@@ -172,15 +172,19 @@ def test_room_puts_furniture_on_the_floor_first_and_objects_on_their_tops(catalo
         for piece in scene.objects[:n]:
             assert abs(piece.pose.pos_world_m[2] - drop) < 1e-9
         for o in scene.objects[n:]:
+            # The pieces whose top is at the object's height (two of one shape variant share it):
+            # one of them must hold it within its top's outline.
+            level, held = False, False
             for piece in (p for p in scene.objects[:n] if p.asset.support):
                 T = piece.pose.matrix()
                 local = np.linalg.solve(T, [*o.pose.pos_world_m, 1.0])[:3]
                 top = float(piece.asset.size_m[2])
                 if abs(local[2] - top - drop) > 1e-6:
                     continue
-                outline = top_outline(piece.asset)
-                assert Path(outline).contains_point(local[:2]), (seed, o.asset.category, piece.asset.category)
-                on_tops += 1
+                level = True
+                held |= bool(Path(top_outline(piece.asset)).contains_point(local[:2]))
+            assert held or not level, (seed, o.asset.category)
+            on_tops += held
     assert on_tops >= 5
 
 
