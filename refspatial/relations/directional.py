@@ -76,12 +76,21 @@ def left_of(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     neither rests on or in the other; and the picture agrees: A's mask lies left of B's at both
     its edges (a stool 28 cm right of a plate but 1.84 m behind it is drawn left of the plate's
     centre: annotator). False when the whole of A lies right of B and the picture agrees;
-    undecided otherwise."""
+    undecided otherwise, and across shelf boards when the picture puts one more above the other
+    than beside it (a candle a board up, 121 px left and 260 px higher, is "above and to the
+    left", not "to the left of": annotator, read 23)."""
     verdict = clear_order(v, a, b, v.right_axis, a.lateral_m, b.lateral_m)
-    if verdict is None:
+    if verdict is None or (v.on_other_levels(a, b) and _mostly_above(a, b)):
         return None
     first, second = (a, b) if verdict else (b, a)
     return verdict if _shown_left(v, first, second) else None
+
+
+def _mostly_above(a: ObjectFacts, b: ObjectFacts) -> bool:
+    """The picture's line between their centroids is steeper than 45 degrees."""
+    if a.centroid_px is None or b.centroid_px is None:
+        return False
+    return abs(a.centroid_px[1] - b.centroid_px[1]) > abs(a.centroid_px[0] - b.centroid_px[0])
 
 
 def _shown_left(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> bool:
