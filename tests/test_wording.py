@@ -172,6 +172,39 @@ def test_every_catalogue_side_has_a_visibility_rule_and_symmetric_things_have_no
         assert sides[name] == "none", name
 
 
+def test_a_clause_whose_anchor_runs_on_comes_last():
+    """"The stapler farther back than the stapler nearest the front and right of the leftmost
+    stapler" read as "nearest the front and right of" (annotator, read 24): a clause whose
+    anchor's words run on past its noun is said last, so no "and" follows it."""
+    from refspatial.questions.refer import Ordinal, Ref, Relation
+
+    front = Ref(1, "stapler", "stapler", ordinal=Ordinal("front_back", "front", 1))
+    leftmost = Ref(2, "stapler", "stapler", ordinal=Ordinal("left_right", "left", 1))
+    target = Ref(0, "stapler", "stapler", relations=(Relation("behind", (front,)), Relation("right_of", (leftmost,))))
+    said = {Phrasebook.get().describe(target, np.random.default_rng(seed))[0] for seed in range(40)}
+    runs_on = [t for t in said if "nearest the front" in t]
+    assert runs_on, said
+    assert all(t.endswith("the stapler nearest the front") for t in runs_on), runs_on
+
+
+def test_a_depth_question_never_reads_as_the_thing_s_own_depth():
+    forms = Phrasebook.get().data["quantity"]["depth"]
+    assert forms and not [f for f in forms if "depth of" in f or "how deep is" in f.lower()]
+
+
+def test_no_metric_offset_is_measured_from_a_pan():
+    """"5 cm behind the pan" put the spot past its handle's tip, 15 cm behind the rim a reader
+    measures from (annotator, read 24): offsets are measured from other things only."""
+    pan = obj(0, "pan", "blue", 0.0, 0.0)
+    plate = obj(1, "plate", "white", 0.35, 0.05)
+    v = view(pan, plate)
+    spec = {**SPEC, "families": {"placement": 1}, "steps": {2: 1}}
+    prompts = [q["prompt"] for seed in range(30) for q in questions_for_view(v, spec, np.random.default_rng(seed), "k")]
+    offsets = [p for p in prompts if re.search(r"\d+ cm ", p)]
+    assert offsets and any(" pan" in p for p in prompts), "the plate anchors offsets, the pan other spots"
+    assert not [p for p in offsets if " pan" in p], offsets
+
+
 def test_multiview_prompt_does_not_say_the_object_twice():
     from refspatial.questions.multiview import predicate_words
 

@@ -74,14 +74,24 @@ class Phrasebook:
     def clauses(self, ref: Ref, rng: np.random.Generator, view: ViewFacts | None,
                 texts: dict[Ref, str]) -> str:
         """Just the relation clauses of a description ("to the left of the mug and near the bowl").
-        Phrases in a row on the same anchor share its words: "to the left of and behind the plate"."""
+        Phrases in a row on the same anchor share its words: "to the left of and behind the plate".
+        A clause whose anchor's words run on past its noun ("the stapler nearest the front", "the
+        cup left of the bowl") comes last: "farther back than the stapler nearest the front and
+        right of the leftmost stapler" read as "nearest the front and right of" (annotator)."""
         rels = ref.relations
-        return " and ".join(self._relation(r, rng, texts, view, named=not (k + 1 < len(rels) and r.anchors
-                                                                          and rels[k + 1].anchors == r.anchors))
-                            for k, r in enumerate(rels))
+        groups: list[list[str]] = [[]]
+        open_ends: list[bool] = []
+        for k, r in enumerate(rels):
+            shared = bool(k + 1 < len(rels) and r.anchors and rels[k + 1].anchors == r.anchors)
+            groups[-1].append(self._relation(r, rng, texts, view, named=not shared))
+            if not shared:
+                open_ends.append(bool(r.anchors) and not texts[r.anchors[-1]].endswith(_noun(r.anchors[-1])))
+                groups.append([])
+        ordered = [g for g, o in zip(groups, open_ends) if not o] + [g for g, o in zip(groups, open_ends) if o]
+        return " and ".join(" and ".join(g) for g in ordered)
 
     def _describe(self, ref: Ref, rng, texts: dict[Ref, str], view) -> str:
-        noun = f"{ref.color} {ref.name}" if ref.color else ref.name
+        noun = _noun(ref)
         text = self._ordinal(ref.ordinal, noun, rng) if ref.ordinal else f"the {noun}"
         if ref.relations:
             joiner = " that is " if rng.random() < 0.4 else " "
@@ -102,3 +112,7 @@ class Phrasebook:
             return self.pick(forms["first"], rng).format(noun=noun)
         nth = self.data["nth_words"][o.rank]
         return self.pick(forms["nth"], rng).format(noun=noun, nth=nth)
+
+
+def _noun(ref: Ref) -> str:
+    return f"{ref.color} {ref.name}" if ref.color else ref.name

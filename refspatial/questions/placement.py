@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ..annotate import rle_encode
@@ -37,6 +39,8 @@ def placement(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.rando
         candidates = [o for o in candidates if o.is_support]
     else:
         candidates = [o for o in candidates if o.support <= TABLE]  # the table top or a shelf board
+    if "offset" in kinds:
+        candidates = [o for o in candidates if o.category not in _no_offset_from()]
     if len(candidates) < len(anchor_steps):
         return None
     chosen = [candidates[int(i)] for i in rng.choice(len(candidates), size=len(anchor_steps), replace=False)]
@@ -47,6 +51,11 @@ def placement(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.rando
     if not all(refs):
         return None
     return _question(views, spec, refs, _constraints(kinds, rng), rng)
+
+
+@lru_cache(maxsize=1)
+def _no_offset_from() -> frozenset[str]:
+    return frozenset(Phrasebook.get().data["no_offset_from"])
 
 
 def _anchor_ref(view: ViewFacts, obj, steps: int, others: int, rng) -> Ref | None:
