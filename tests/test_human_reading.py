@@ -478,6 +478,18 @@ def test_no_rank_from_the_side_past_the_first_across_shelf_boards():
     assert execute(nth(2), row)[-1] == 2
 
 
+def test_taller_needs_both_seen_mostly_whole():
+    """A purple bottle 25 cm tall on the bottom board, its neck hidden by the board above (half
+    of it seen), against an 18 cm silver bottle seen whole: it looks the shorter (annotator,
+    read 25)."""
+    purple = _facts({"id": 0, "category": "bottle", "at": [0.0, 0.3, 0.0], "size": [0.07, 0.07, 0.25]})
+    silver = _facts({"id": 1, "category": "bottle", "at": [0.3, 0.3, 0.0], "size": [0.07, 0.07, 0.182]})
+    assert PREDICATES["taller_than"](view(purple, silver), purple, silver) is True
+    hidden = dataclasses.replace(purple, visible_share=0.5)
+    assert PREDICATES["taller_than"](view(hidden, silver), hidden, silver) is None
+    assert PREDICATES["shorter_than"](view(hidden, silver), silver, hidden) is None
+
+
 def test_a_mug_is_a_cup_to_a_reader():
     """"The cup that is not in contact with the pot" beside a black mug whose handle was black on
     black: a reader saw two cups (annotator, read 22). Our cups have no handle: not mugs."""

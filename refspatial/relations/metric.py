@@ -13,6 +13,7 @@ from .vertical import contained
 # A clear margin: a person comparing two heights or widths by eye calls 20 % (or 2 cm) a
 # difference worth a word; closer than that is a near-tie, never asked.
 HEIGHT_MARGIN = (0.02, 0.20)  # (absolute m, share of the taller)
+HEIGHT_SEEN_SHARE = 0.7  # least share of its silhouette an object shows for its height to be judged
 VOLUME_MARGIN = 0.20  # share of the larger volume, for both readings of "bigger"
 # ...and the eye's reading: how big each looks in the picture, by the area its outline prism
 # covers there, must agree beyond this share of the larger (a cake in front looks larger than
@@ -38,7 +39,11 @@ def taller_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     """A's height along gravity (world box) exceeds B's by max(2 cm, 20 % of the taller), and
     B's longest dimension is no longer than A's: "shorter" also reads as less long, so an orange
     against a 22 cm screwdriver lying flat is undecided (annotator), and so is a 20 cm
-    screwdriver lying flat against an 18 cm wine glass (annotator)."""
+    screwdriver lying flat against an 18 cm wine glass (annotator). Undecided unless both are
+    seen at least HEIGHT_SEEN_SHARE whole: a bottle whose neck a shelf board hides looks shorter
+    than it is (annotator, read 25)."""
+    if min(a.visible_share, b.visible_share) < HEIGHT_SEEN_SHARE:
+        return None
     verdict = _relative(a.height_m - b.height_m, max(a.height_m, b.height_m), HEIGHT_MARGIN)
     if verdict is None:
         return None
