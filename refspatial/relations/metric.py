@@ -27,6 +27,7 @@ RAISED_TOP_M = 0.25  # a support this tall is furniture with a raised top (side 
 NEAR_GAP = (0.05, 0.5)  # near: footprint gap <= max(5 cm, 0.5 x mean footprint size)
 FAR_GAP = (0.25, 2.0)  # far: footprint gap >= max(25 cm, 2 x mean footprint size)
 CENTRED_DEG = 2.0  # within this, the camera needs no turn
+PAN_READINGS_DEG = 1.0  # the most a pan to the box centre may differ from one to the footprint's centre
 TILT_READINGS_DEG = 2.0  # the most a tilt after a level pan may differ from one after a turn about the camera's own axis
 
 
@@ -226,13 +227,25 @@ def rotate_horizontal(v: ViewFacts, a: ObjectFacts) -> Quantity | None:
     A pan turns about the world's vertical, as a pan-tilt head or a robot's base does, so it is
     the angle on the ground between the camera's heading and the direction of the object. The
     camera's own tilted up-axis would give another answer for a camera looking down (28 degrees
-    where a level pan needs 37: annotator). None when already within 2 degrees, or unseen.
+    where a level pan needs 37: annotator). None when already within 2 degrees, or unseen, and
+    when the object's centre reads two ways a degree or more apart: a frying pan's box centre
+    (its handle included) asked 9.8 degrees where its footprint's centre needs 8.3 (annotator,
+    read 26).
     """
     ray = _world_ray(v, a)
     if ray is None:
         return None
-    yaw = float(np.degrees(np.arctan2(ray @ v.right_axis, ray @ v.forward_axis)))
+    yaw = _yaw_deg(v, ray)
+    if len(a.ground_centres) > 1 and v.T_world_cam is not None:
+        to_footprint = np.array([*a.ground_centres[1], a.center_world_m[2]]) - v.T_world_cam[:3, 3]
+        if abs(_yaw_deg(v, to_footprint) - yaw) >= PAN_READINGS_DEG:
+            return None
     return None if abs(yaw) < CENTRED_DEG else Quantity(yaw, "deg")
+
+
+def _yaw_deg(v: ViewFacts, d: np.ndarray) -> float:
+    """Angle on the ground from the camera's heading to direction ``d``, degrees; positive = right."""
+    return float(np.degrees(np.arctan2(d @ v.right_axis, d @ v.forward_axis)))
 
 
 @predicate("rotate_vertical", family="rotation", arity=1, frame="camera", kind="measure")
