@@ -396,6 +396,18 @@ def test_the_distance_between_says_edge_to_edge():
         assert any(w in t for w in ("nearest", "edge", "gap", "space", "shortest")), t
 
 
+def test_at_a_corner_needs_the_centre_in_the_table_s_outer_quarter():
+    """A bowl 20 cm across, 3 cm from the table's end and 17 cm from its long side: within 18 cm
+    of both edges, but its centre 27 cm in from the side of a table 80 cm deep is near the middle
+    of the end, not at the corner (annotator, read 27). Nearer the side it is at the corner."""
+    def bowl(y: float):
+        return _facts({"id": 0, "category": "bowl", "at": [-0.47, y, 0.0], "size": [0.2, 0.2, 0.07]})
+
+    at = PREDICATES["at_corner"]
+    assert at(view(b := bowl(0.13)), b) is None
+    assert at(view(b := bowl(0.21)), b) is True
+
+
 def test_a_plate_under_a_cup_is_not_in_it():
     """A cup sunk 3 mm into a plate's dish: the plate's centre lies in the cup's cavity and its
     bottom just under the cavity floor, but the cup rests on the plate (annotator: "the object in

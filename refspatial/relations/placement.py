@@ -23,6 +23,7 @@ EDGE_M = (0.10, 0.25)
 # a holder 3 cm from one edge and 28.9 cm from the other, which, foreshortened at the back of
 # the table, looked at the corner: annotator).
 CORNER_M = (0.18, 0.30)
+CORNER_SHARE = 0.25  # ...with its centre in the outer quarter of the table along both edges
 
 
 def _side_angle(a: ObjectFacts, b: ObjectFacts) -> float | None:
@@ -116,11 +117,18 @@ def at_corner(v: ViewFacts, a: ObjectFacts) -> Verdict:
     """A stands on the table within 18 cm of both edges meeting at a corner, and that corner is
     drawn in the picture: a person judges "at a corner" by seeing it (annotator: a holder 9 and
     16 cm in from a corner out of frame was "the one at a corner"). False if either distance is
-    >= 30 cm; undecided otherwise."""
+    >= 30 cm; undecided otherwise, and where its centre lies outside the outer quarter of the
+    table along either edge: on a counter 69 cm deep a bowl 17 cm in from the long side had its
+    centre 27 cm in, near the middle of the table's end rather than at a corner (annotator,
+    read 27)."""
     d = _edge_distances(v, a)
     if d is None:
         return None
     if float(d.max()) <= CORNER_M[0]:
+        half = np.asarray(v.table_size_m) / 2
+        centre_in = half - np.abs(a.center_world_m[:2])
+        if np.any(centre_in > CORNER_SHARE * 2 * half):
+            return None
         return True if _corner_in_picture(v, a) else None
     return False if float(d.max()) >= CORNER_M[1] else None
 
