@@ -426,18 +426,21 @@ def build_variants(catalogue: Catalogue, categories: list[str], variants: int) -
     return count
 
 
+def _shape_key(spec: CategorySpec, params: dict[str, float]) -> tuple:
+    return spec.key, spec.builder, tuple(sorted(params.items()))
+
+
 def _shape(spec: CategorySpec, params: dict[str, float], bank: bool) -> tuple[MeshData, tuple[MeshData, ...]]:
     if not bank:
         return _geometry(spec, params)
-    return banked((spec.key, spec.builder, tuple(sorted(params.items()))), lambda: _geometry(spec, params))
+    return banked(_shape_key(spec, params), lambda: _geometry(spec, params))
 
 
 def _laid_out(looks, spec: CategorySpec, params: dict[str, float], visual: MeshData, bank: bool) -> MeshData:
     """The visual mesh with its category's texture coordinates (banked with the shape)."""
     if not bank:
         return texture_layout(looks, spec.key, visual)
-    key = (spec.key, spec.builder, tuple(sorted(params.items())), looks.placement(spec.key))
-    return banked(key, lambda: texture_layout(looks, spec.key, visual))
+    return banked((*_shape_key(spec, params), looks.placement(spec.key)), lambda: texture_layout(looks, spec.key, visual))
 
 
 def _geometry(spec: CategorySpec, params: dict[str, float]) -> tuple[MeshData, tuple[MeshData, ...]]:

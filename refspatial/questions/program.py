@@ -13,11 +13,9 @@ answer ever rests on one.
 from __future__ import annotations
 
 from functools import lru_cache
-from pathlib import Path
 from typing import Any, Callable, Mapping
 
 import numpy as np
-import yaml
 
 from ..relations import PREDICATES, Quantity, ViewFacts
 from ..relations.directional import DEPTH_MARGIN_M, SHELF_INWARD
@@ -34,7 +32,6 @@ class ProgramError(Exception):
     """The program does not pick out a definite answer on this view."""
 
 
-TEMPLATES = Path(__file__).with_name("templates.yaml")
 OPS: dict[str, Callable[..., Value]] = {}
 SCENE_OPS: set[str] = set()  # operations that read every view (passed as the node's "_views")
 
@@ -73,8 +70,9 @@ def answers_to(view: ViewFacts, o, category: str | None) -> bool:
 
 @lru_cache(maxsize=1)
 def _also_called() -> dict[str, tuple[str, ...]]:
-    table = yaml.safe_load(TEMPLATES.read_text(encoding="utf-8"))["also_called"]
-    return {category: tuple(names) for category, names in table.items()}
+    from .phrases import Phrasebook  # phrases imports this module (through refer)
+
+    return {category: tuple(names) for category, names in Phrasebook.get().data["also_called"].items()}
 
 
 @op("filter")
