@@ -9,7 +9,7 @@ from refspatial.relations import TABLE, view_facts
 from refspatial.relations.free_space import (
     ANSWER_ROOM_M, CLEARANCE_M, DIRECTIONS, IMAGE_CLEARANCE, MIN_FREE_AREA_M2, OCCLUSION_M, Constraint, _sector, direction_axis, solve,
 )
-from refspatial.relations.geometry import inside_convex, project
+from refspatial.relations.geometry import grown_box, inside_convex, project
 from refspatial.render import render_views
 
 
@@ -280,3 +280,51 @@ def test_between_spots_lie_in_the_middle_of_the_line_joining_their_anchors(views
                 assert 0.2 - 0.05 <= t <= 0.8 + 0.05, (a.object_id, b.object_id, t)
                 solved += 1
     assert solved >= 1
+
+
+@pytest.mark.parametrize("poly", [
+    np.array([[0.0, 0.0], [0.3, 0.02], [0.0, 0.05]]),  # a sliver: its sharp corner's mitre reaches far
+    np.array([[0.1, 0.1], [0.2, 0.2], [0.1, 0.3], [0.0, 0.2]]),  # a square turned by 45 degrees
+])
+def test_grown_box_holds_the_grown_polygon(poly):
+    # The raster of cells clear of obstacles looks only inside this box: a cell the grown
+    # polygon holds outside it would be called roomy by the raster and not by the exact test.
+    grow = ANSWER_ROOM_M
+    lo, hi = grown_box(poly, grow)
+    xs, ys = np.meshgrid(np.linspace(-0.5, 1.5, 801), np.linspace(-0.5, 0.6, 441))
+    points = np.column_stack([xs.ravel(), ys.ravel()])
+    held = points[inside_convex(points, poly, grow=grow)]
+    assert np.all(held >= lo - 1e-12) and np.all(held <= hi + 1e-12)
+    assert np.all(held.min(0) - lo < 0.01) and np.all(hi - held.max(0) < 0.01)  # and it is tight
+    assert np.any(held.max(0) > poly.max(0) + grow + 0.01)  # past the plain box grown by grow
+
+
+def test_cell_flags_match_the_tests_they_cache(views):
+    # The raster's per-cell flags (seen, cleared, roomy) against each test made at the cells'
+    # centres directly, as the solver did per region before they were cached.
+    from refspatial.relations import free_space as fs
+    checked = 0
+    for v in views:
+        support, polygon, z = fs._platform(v, (), [v.objects[0]])
+        raster = fs._raster(v, support, polygon, z)
+        seen, cleared, roomy = raster.flags(v, support, z)
+        rows, cols = np.nonzero(raster.free)
+        centres = (np.column_stack([cols + raster.first[0], rows + raster.first[1]]) + 0.5) * fs.CELL_M
+        uv, depth = project(np.column_stack([centres, np.full(len(centres), z)]), v.K, v.T_world_cam)
+        inside = (uv[:, 0] >= 0) & (uv[:, 0] < v.width) & (uv[:, 1] >= 0) & (uv[:, 1] < v.height) & (depth > 0)
+        shown = np.zeros(len(uv), dtype=bool)
+        u, w = uv[inside].astype(int).T
+        shown[inside] = np.abs(v.depth_m[w, u] - depth[inside]) <= OCCLUSION_M
+        assert np.array_equal(seen[rows, cols], shown)
+        clear = fs.image_clearance(v, support)
+        on_clear = np.zeros(len(uv), dtype=bool)
+        on_clear[inside] = clear[w, u]
+        assert np.array_equal(cleared[rows, cols], on_clear)
+        room = np.ones(len(centres), dtype=bool)
+        for o in v.objects:
+            if o.object_id != support and o.aabb_world_m[0, 2] < z + fs.OBSTACLE_BAND_M:
+                outline = o.ground_outline if o.ground_outline is not None else o.footprint_world
+                room &= ~inside_convex(centres, outline, grow=ANSWER_ROOM_M)
+        assert np.array_equal(roomy[rows, cols], room)
+        checked += len(centres)
+    assert checked > 1000

@@ -36,7 +36,7 @@ from ..scene import LEG_HALF_M, LEG_INSET_M
 from .directional import corridor, squarely_between
 from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
-from .geometry import inside_convex, inside_convex_grid, project
+from .geometry import grown_box, inside_convex, inside_convex_grid, project
 from .masks import box_of, cached_boxes, padded
 from .registry import predicate
 
@@ -108,18 +108,24 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     first, last = _grid(v, constraints, polygon)
     rows, cols = np.nonzero(raster.block(first, last))  # the free cells; then those in every region
     free = (np.column_stack([cols + first[0], rows + first[1]]) + 0.5) * CELL_M
-    free = free[_in_regions(v, constraints, free)]
+    inside = _in_regions(v, constraints, free)
+    free = free[inside]
     area = float(len(free) * CELL_M**2)
-    if not any(c.kind == "offset" for c in constraints) and area <= MIN_FREE_AREA_M2:
+    offset = any(c.kind == "offset" for c in constraints)
+    if not offset and area <= MIN_FREE_AREA_M2:
         return None
-    visible = _visible(v, np.column_stack([free, np.full(len(free), z)]))
+    seen, cleared, roomy = raster.flags(v, support, z)
+    cells = (rows[inside] + first[1] - raster.first[1], cols[inside] + first[0] - raster.first[0])
+    visible = seen[cells]
     if len(free) == 0 or visible.sum() < max(1, MIN_VISIBLE_SHARE * len(free)):
         return None
     valid = free[visible]
+    cells = (cells[0][visible], cells[1][visible])
+    # A metric offset's single point is where its words put it, and keeps only the solver's
+    # clearance, not ANSWER_ROOM_M.
+    keep = cleared[cells] if offset else cleared[cells] & roomy[cells]
+    valid = valid[keep & _facing_anchors(v, constraints, valid) & _squarely_between(v, constraints, valid)]
     clear = image_clearance(v, support)
-    uv, _ = project(np.column_stack([valid, np.full(len(valid), z)]), v.K, v.T_world_cam)
-    valid = valid[_cleared(clear, uv) & _facing_anchors(v, constraints, valid) &
-                  _squarely_between(v, constraints, valid) & _roomy(v, constraints, valid, support, z)]
     if len(valid) == 0:
         return None
     mean = _column_means(valid)
@@ -165,18 +171,6 @@ def _squarely_between(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarr
         across, half_width = corridor(b, d)
         rel = points - q
         keep &= squarely_between(rel @ seg / length**2, np.abs(rel @ across[:2]), length, half_width)
-    return keep
-
-
-def _roomy(v: ViewFacts, constraints, points: np.ndarray, support: int, z: float) -> np.ndarray:
-    """Which points keep ANSWER_ROOM_M from every obstacle's ground outline (a metric offset's
-    single point is where its words put it, and keeps only the solver's clearance)."""
-    keep = np.ones(len(points), dtype=bool)
-    if any(c.kind == "offset" for c in constraints):
-        return keep
-    for o in _obstacles(v, support, z):
-        outline = o.ground_outline if o.ground_outline is not None else o.footprint_world
-        keep &= ~inside_convex(points, outline, grow=ANSWER_ROOM_M)
     return keep
 
 
@@ -372,6 +366,36 @@ class _Raster:
             window = self.free[a[1] - self.first[1]:b[1] - self.first[1] + 1, a[0] - self.first[0]:b[0] - self.first[0] + 1]
             window &= ~hit
 
+        self._flags: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def flags(self, v: ViewFacts, support: int, z: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Bool rasters (seen, cleared, roomy) over the free cells, built on first use: a cell's
+        centre at height z is unoccluded in the picture, falls on a pixel ``image_clearance``
+        keeps, and lies ANSWER_ROOM_M clear of every obstacle's ground outline. Each is a
+        property of the cell alone; the four directions from every anchor, and every question
+        after them, look the same cells up rather than testing them again."""
+        if self._flags is None:
+            rows, cols = np.nonzero(self.free)
+            centres = (np.column_stack([cols + self.first[0], rows + self.first[1]]) + 0.5) * CELL_M
+            uv, depth = project(np.column_stack([centres, np.full(len(centres), z)]), v.K, v.T_world_cam)
+            seen, cleared, roomy = (np.zeros_like(self.free) for _ in range(3))
+            seen[rows, cols] = _unoccluded(v, uv, depth)
+            cleared[rows, cols] = _cleared(image_clearance(v, support), uv)
+            roomy[rows, cols] = True
+            last = self.first + self.free.shape[::-1] - 1
+            for o in _obstacles(v, support, z):
+                outline = o.ground_outline if o.ground_outline is not None else o.footprint_world
+                lo, hi = grown_box(outline, ANSWER_ROOM_M)  # and a cell more, against rounding
+                a = np.maximum(np.floor(lo / CELL_M).astype(int) - 1, self.first)
+                b = np.minimum(np.floor(hi / CELL_M).astype(int) + 1, last)
+                if np.any(b < a):
+                    continue
+                block = (b - a + 1)[::-1]
+                hit = inside_convex(_cell_centres(a, block[::-1]), outline, grow=ANSWER_ROOM_M).reshape(block)
+                roomy[a[1] - self.first[1]:b[1] - self.first[1] + 1, a[0] - self.first[0]:b[0] - self.first[0] + 1] &= ~hit
+            self._flags = seen, cleared, roomy
+        return self._flags
+
     def block(self, first: np.ndarray, last: np.ndarray) -> np.ndarray:
         """A copy of the free flags of cells first..last (inclusive (x, y) indices), rows
         following y; cells off the raster are not free."""
@@ -491,11 +515,11 @@ def _cleared(clear: np.ndarray, uv: np.ndarray) -> np.ndarray:
     return out
 
 
-def _visible(v: ViewFacts, points_world: np.ndarray) -> np.ndarray:
-    uv, z = project(points_world, v.K, v.T_world_cam)
+def _unoccluded(v: ViewFacts, uv: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Which projected points (pixels uv, optical-axis depths z) the rendered depth shows."""
     cols, rows = np.floor(uv[:, 0]).astype(int), np.floor(uv[:, 1]).astype(int)
     ok = (z > 0) & (cols >= 0) & (cols < v.width) & (rows >= 0) & (rows < v.height)
-    out = np.zeros(len(points_world), dtype=bool)
+    out = np.zeros(len(uv), dtype=bool)
     out[ok] = np.abs(v.depth_m[rows[ok], cols[ok]] - z[ok]) <= OCCLUSION_M
     return out
 

@@ -94,6 +94,21 @@ def inside_convex(points: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np
     return np.all(points @ normals.T - offsets <= grow, axis=1)
 
 
+def grown_box(poly: np.ndarray, grow: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) corners of the bounding box of ``inside_convex``'s region for ``grow`` >= 0: the
+    polygon's edges moved out, whose corners are mitred, so a sharp corner reaches further than
+    ``grow`` past the polygon's own box."""
+    poly = ccw(poly)
+    edges = _next(poly) - poly
+    lengths = np.linalg.norm(edges, axis=1)
+    poly, edges, lengths = poly[lengths > 0], edges[lengths > 0], lengths[lengths > 0]
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / lengths[:, None]
+    before = np.concatenate([normals[-1:], normals[:-1]])  # the normal of the edge ending at each corner
+    # The two moved edges meet at corner + grow * (n1 + n2) / (1 + n1 . n2).
+    corners = poly + grow * (before + normals) / (1 + np.einsum("ij,ij->i", before, normals))[:, None]
+    return corners.min(0), corners.max(0)
+
+
 def inside_convex_grid(xs: np.ndarray, ys: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np.ndarray:
     """``inside_convex`` of every grid point (x, y), x from ``xs`` and y from ``ys``, as a
     (len(ys), len(xs)) mask (rows follow y).
