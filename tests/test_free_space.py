@@ -308,6 +308,10 @@ def test_cell_flags_match_the_tests_they_cache(views):
         support, polygon, z = fs._platform(v, (), [v.objects[0]])
         raster = fs._raster(v, support, polygon, z)
         seen, cleared, roomy = raster.flags(v, support, z)
+        every = np.indices(raster.free.shape).reshape(2, -1)  # and the raster itself, cell by cell
+        cells = (np.column_stack([every[1] + raster.first[0], every[0] + raster.first[1]]) + 0.5) * fs.CELL_M
+        exact = fs._free_exact(v, cells, support, polygon, z).reshape(raster.free.shape)
+        assert np.array_equal(raster.free, exact)
         rows, cols = np.nonzero(raster.free)
         centres = (np.column_stack([cols + raster.first[0], rows + raster.first[1]]) + 0.5) * fs.CELL_M
         uv, depth = project(np.column_stack([centres, np.full(len(centres), z)]), v.K, v.T_world_cam)

@@ -357,8 +357,9 @@ class _Raster:
         shape = (last - self.first + 1)[::-1]  # rows follow y, columns x
         self.free = inside_convex_grid(*_cell_axes(self.first, shape[::-1]), polygon, grow=-EDGE_MARGIN_M)
         for o in _obstacles(v, support, z):
-            a = np.maximum(np.floor((o.footprint_world.min(0) - CLEARANCE_M) / CELL_M).astype(int), self.first)
-            b = np.minimum(np.floor((o.footprint_world.max(0) + CLEARANCE_M) / CELL_M).astype(int), last)
+            lo, hi = grown_box(o.footprint_world, CLEARANCE_M)  # a turned box's corners reach past its box + clearance
+            a = np.maximum(np.floor(lo / CELL_M).astype(int) - 1, self.first)
+            b = np.minimum(np.floor(hi / CELL_M).astype(int) + 1, last)
             if np.any(b < a):
                 continue
             block = (b - a + 1)[::-1]
