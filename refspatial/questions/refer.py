@@ -57,6 +57,16 @@ class Ref:
     ordinal: Ordinal | None = None
     relations: tuple[Relation, ...] = ()
 
+    def __hash__(self) -> int:
+        # The dataclass's own hash, kept once made: descriptions key the search's dicts, and
+        # hashing one walks every anchor's description below it (a tenth of the question stage).
+        try:
+            return self.__dict__["_hash"]
+        except KeyError:
+            h = hash((self.object_id, self.category, self.name, self.color, self.ordinal, self.relations))
+            object.__setattr__(self, "_hash", h)
+            return h
+
     @property
     def steps(self) -> int:
         return max(1, _relation_steps(self.relations))
@@ -354,9 +364,11 @@ def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
     keeps only the target, and has no idle part (dropping any one leaves more than the target).
     Returns a boolean array with one axis per list. ``target`` is the target's bit."""
     n = len(lists)
-    wide = max(head.bit_length(), *(p.kept.bit_length() | p.undecided.bit_length() | p.objects.bit_length()
-                                    | p.predicates.bit_length()
-                                    for x in lists for p in x)) > 63
+    bits = head
+    for x in lists:
+        for p in x:
+            bits |= p.kept | p.undecided | p.objects | p.predicates
+    wide = bits.bit_length() > 63
     dtype = object if wide else np.uint64  # Python ints past 63 objects: slower, same logic
 
     def column(k: int, field: str) -> np.ndarray:

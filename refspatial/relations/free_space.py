@@ -36,7 +36,7 @@ from ..scene import LEG_HALF_M, LEG_INSET_M
 from .directional import corridor, squarely_between
 from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
-from .geometry import grown_box, inside_convex, inside_convex_grid, project
+from .geometry import grown_box, half_planes, inside_convex, inside_convex_grid, inside_half_planes, project
 from .masks import box_of, cached_boxes, padded
 from .registry import predicate
 
@@ -310,8 +310,8 @@ def _between(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0)
     key = ("between_hull", *sorted(c.anchors))
     if key not in v.cache:  # the mask and every solve with this pair ask again
         corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
-        v.cache[key] = corners[ConvexHull(corners).vertices]
-    return inside_convex(points, v.cache[key], grow=grow)
+        v.cache[key] = half_planes(corners[ConvexHull(corners).vertices])
+    return inside_half_planes(points, v.cache[key], grow=grow)
 
 
 def _on_top(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
@@ -550,27 +550,27 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
     # then the optical-axis depth at which it meets the plane, comparable with the depth image.
     M, t = v.T_world_cam[:3, :3] @ np.linalg.inv(v.K), v.T_world_cam[:3, 3]
     u, w = np.arange(c0, c1) + 0.5, np.arange(r0, r1) + 0.5
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # rays along the plane, and pixels past it
         s = (z - t[2]) / (M[2, 0] * u[None, :] + M[2, 1] * w[:, None] + M[2, 2])
-    ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1] - s) <= OCCLUSION_M)
-    rows, cols = np.nonzero(ok)
-    depth, uc, wr = s[rows, cols], u[cols], w[rows]
-    x, y = (_on_plane(uc, wr, depth, M[k], t[k]) for k in (0, 1))
-    ix, iy = np.floor(x / CELL_M).astype(int) - lo[0], np.floor(y / CELL_M).astype(int) - lo[1]
-    on = (ix >= 0) & (ix < codes.shape[1]) & (iy >= 0) & (iy < codes.shape[0])
-    code = np.zeros(len(x), dtype=np.uint8)
+        ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1] - s) <= OCCLUSION_M)
+        # Plane points and cells of the whole window (most of it is the platform, seen): whole-array
+        # arithmetic costs less than gathering the pixels that are; the others are masked out.
+        x, y = (_on_plane(u, w, s, M[k], t[k]) for k in (0, 1))
+        ix, iy = np.floor(x / CELL_M).astype(int) - lo[0], np.floor(y / CELL_M).astype(int) - lo[1]
+    on = ok & (ix >= 0) & (ix < codes.shape[1]) & (iy >= 0) & (iy < codes.shape[0])
+    code = np.zeros(ok.shape, dtype=np.uint8)
     code[on] = codes[iy[on], ix[on]]
     keep, edge = code == WHOLE, code == EDGE
     keep[edge] = _in_regions(v, constraints, np.column_stack([x[edge], y[edge]]))
-    mask[rows[keep] + r0, cols[keep] + c0] = True
+    mask[r0:r1, c0:c1] = keep
     return mask
 
 
-def _on_plane(uc: np.ndarray, wr: np.ndarray, depth: np.ndarray, m: np.ndarray, t: float) -> np.ndarray:
-    """One world coordinate of pixel rays met at ``depth``: t + (uc * m[0] + wr * m[1] + m[2]) * depth,
-    the same operations in the same order, in place (sums and products commute exactly)."""
-    out = uc * m[0]
-    out += wr * m[1]
+def _on_plane(u: np.ndarray, w: np.ndarray, depth: np.ndarray, m: np.ndarray, t: float) -> np.ndarray:
+    """One world coordinate of the rays through pixel columns u and rows w, met at ``depth`` (rows,
+    columns): t + (u * m[0] + w * m[1] + m[2]) * depth, the same operations in the same order, in
+    place."""
+    out = (u * m[0])[None, :] + (w * m[1])[:, None]
     out += m[2]
     out *= depth
     out += t

@@ -90,7 +90,17 @@ def _half_planes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def inside_convex(points: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np.ndarray:
     """Boolean mask of (N, 2) points inside a convex polygon grown outward by ``grow`` metres."""
-    normals, offsets = _half_planes(poly)
+    return inside_half_planes(points, _half_planes(poly), grow)
+
+
+def half_planes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A convex polygon's edges as ``inside_half_planes`` takes them, for a polygon tested often."""
+    return _half_planes(poly)
+
+
+def inside_half_planes(points: np.ndarray, planes: tuple[np.ndarray, np.ndarray], grow: float = 0.0) -> np.ndarray:
+    """``inside_convex`` of the polygon whose ``half_planes`` are given."""
+    normals, offsets = planes
     return np.all(points @ normals.T - offsets <= grow, axis=1)
 
 
