@@ -552,18 +552,34 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
     u, w = np.arange(c0, c1) + 0.5, np.arange(r0, r1) + 0.5
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # rays along the plane, and pixels past it
         s = (z - t[2]) / (M[2, 0] * u[None, :] + M[2, 1] * w[:, None] + M[2, 2])
-        ok = (s > 0) & np.isfinite(s) & (np.abs(v.depth_m[r0:r1, c0:c1] - s) <= OCCLUSION_M)
+        # Seen: in front of the camera, and the rendered depth within OCCLUSION_M of the plane's
+        # (an infinite or undefined s fails the second test by itself).
+        gap = v.depth_m[r0:r1, c0:c1] - s
+        np.abs(gap, out=gap)
+        ok = (s > 0) & (gap <= OCCLUSION_M)
         # Plane points and cells of the whole window (most of it is the platform, seen): whole-array
         # arithmetic costs less than gathering the pixels that are; the others are masked out.
         x, y = (_on_plane(u, w, s, M[k], t[k]) for k in (0, 1))
-        ix, iy = np.floor(x / CELL_M).astype(int) - lo[0], np.floor(y / CELL_M).astype(int) - lo[1]
+        ix, iy = (_cell_index(c, lo[k]) for k, c in enumerate((x, y)))
     on = ok & (ix >= 0) & (ix < codes.shape[1]) & (iy >= 0) & (iy < codes.shape[0])
-    code = np.zeros(ok.shape, dtype=np.uint8)
-    code[on] = codes[iy[on], ix[on]]
+    iy *= codes.shape[1]  # the flat index of each pixel's cell, 0 where off the codes
+    iy += ix
+    iy[~on] = 0
+    code = codes.ravel().take(iy)
+    code[~on] = 0
     keep, edge = code == WHOLE, code == EDGE
     keep[edge] = _in_regions(v, constraints, np.column_stack([x[edge], y[edge]]))
     mask[r0:r1, c0:c1] = keep
     return mask
+
+
+def _cell_index(coordinate: np.ndarray, first: int) -> np.ndarray:
+    """floor(coordinate / CELL_M) - first as integers, with one temporary."""
+    out = coordinate / CELL_M
+    np.floor(out, out=out)
+    index = out.astype(int)
+    index -= first
+    return index
 
 
 def _on_plane(u: np.ndarray, w: np.ndarray, depth: np.ndarray, m: np.ndarray, t: float) -> np.ndarray:
