@@ -357,16 +357,7 @@ class _Raster:
         shape = (last - self.first + 1)[::-1]  # rows follow y, columns x
         self.free = inside_convex_grid(*_cell_axes(self.first, shape[::-1]), polygon, grow=-EDGE_MARGIN_M)
         for o in _obstacles(v, support, z):
-            lo, hi = grown_box(o.footprint_world, CLEARANCE_M)  # a turned box's corners reach past its box + clearance
-            a = np.maximum(np.floor(lo / CELL_M).astype(int) - 1, self.first)
-            b = np.minimum(np.floor(hi / CELL_M).astype(int) + 1, last)
-            if np.any(b < a):
-                continue
-            block = (b - a + 1)[::-1]
-            hit = inside_convex(_cell_centres(a, block[::-1]), o.footprint_world, grow=CLEARANCE_M).reshape(block)
-            window = self.free[a[1] - self.first[1]:b[1] - self.first[1] + 1, a[0] - self.first[0]:b[0] - self.first[0] + 1]
-            window &= ~hit
-
+            self._clear_of(self.free, o.footprint_world, CLEARANCE_M)
         self._flags: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def flags(self, v: ViewFacts, support: int, z: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -383,19 +374,26 @@ class _Raster:
             seen[rows, cols] = _unoccluded(v, uv, depth)
             cleared[rows, cols] = _cleared(image_clearance(v, support), uv)
             roomy[rows, cols] = True
-            last = self.first + self.free.shape[::-1] - 1
             for o in _obstacles(v, support, z):
-                outline = o.ground_outline if o.ground_outline is not None else o.footprint_world
-                lo, hi = grown_box(outline, ANSWER_ROOM_M)  # and a cell more, against rounding
-                a = np.maximum(np.floor(lo / CELL_M).astype(int) - 1, self.first)
-                b = np.minimum(np.floor(hi / CELL_M).astype(int) + 1, last)
-                if np.any(b < a):
-                    continue
-                block = (b - a + 1)[::-1]
-                hit = inside_convex(_cell_centres(a, block[::-1]), outline, grow=ANSWER_ROOM_M).reshape(block)
-                roomy[a[1] - self.first[1]:b[1] - self.first[1] + 1, a[0] - self.first[0]:b[0] - self.first[0] + 1] &= ~hit
+                self._clear_of(roomy, o.ground_outline if o.ground_outline is not None else o.footprint_world,
+                               ANSWER_ROOM_M)
             self._flags = seen, cleared, roomy
         return self._flags
+
+    def _clear_of(self, cells: np.ndarray, outline: np.ndarray, grow: float) -> None:
+        """Clear the flags (a raster like ``free``) of the cells whose centres lie within the
+        outline grown by ``grow``, tested over the grown outline's box only: a turned or sharp
+        corner's grown edges reach past the outline's own box plus ``grow`` (and a cell more is
+        taken, against rounding)."""
+        lo, hi = grown_box(outline, grow)
+        last = self.first + cells.shape[::-1] - 1
+        a = np.maximum(np.floor(lo / CELL_M).astype(int) - 1, self.first)
+        b = np.minimum(np.floor(hi / CELL_M).astype(int) + 1, last)
+        if np.any(b < a):
+            return
+        block = (b - a + 1)[::-1]
+        hit = inside_convex(_cell_centres(a, block[::-1]), outline, grow=grow).reshape(block)
+        cells[a[1] - self.first[1]:b[1] - self.first[1] + 1, a[0] - self.first[0]:b[0] - self.first[0] + 1] &= ~hit
 
     def block(self, first: np.ndarray, last: np.ndarray) -> np.ndarray:
         """A copy of the free flags of cells first..last (inclusive (x, y) indices), rows

@@ -76,26 +76,28 @@ def overlap_share(a: np.ndarray, b: np.ndarray) -> float:
     return polygon_area(clip_convex(a, b)) / area if area > 0 else 0.0
 
 
-def _half_planes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(outward unit normals (K, 2), offsets (K,)) of a convex polygon's edges: a point p is
-    inside where p @ normal - offset <= 0 for every edge."""
+def _edge_normals(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(corners, outward unit normals of the edges leaving them) of a convex polygon, counter-
+    clockwise; outlines rounded as records store them can repeat a corner, which is dropped."""
     poly = ccw(poly)
     edges = _next(poly) - poly
     lengths = np.linalg.norm(edges, axis=1)
-    if not np.all(lengths > 0):  # outlines rounded as records store them can repeat a corner
+    if not np.all(lengths > 0):
         poly, edges, lengths = poly[lengths > 0], edges[lengths > 0], lengths[lengths > 0]
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / lengths[:, None]  # outward
+    return poly, np.column_stack([edges[:, 1], -edges[:, 0]]) / lengths[:, None]
+
+
+def half_planes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(outward unit normals (K, 2), offsets (K,)) of a convex polygon's edges: a point p is
+    inside where p @ normal - offset <= 0 for every edge. Kept by callers that test one polygon
+    often (``inside_half_planes``)."""
+    poly, normals = _edge_normals(poly)
     return normals, np.einsum("ij,ij->i", poly, normals)
 
 
 def inside_convex(points: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np.ndarray:
     """Boolean mask of (N, 2) points inside a convex polygon grown outward by ``grow`` metres."""
-    return inside_half_planes(points, _half_planes(poly), grow)
-
-
-def half_planes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A convex polygon's edges as ``inside_half_planes`` takes them, for a polygon tested often."""
-    return _half_planes(poly)
+    return inside_half_planes(points, half_planes(poly), grow)
 
 
 def inside_half_planes(points: np.ndarray, planes: tuple[np.ndarray, np.ndarray], grow: float = 0.0) -> np.ndarray:
@@ -108,11 +110,7 @@ def grown_box(poly: np.ndarray, grow: float) -> tuple[np.ndarray, np.ndarray]:
     """(lo, hi) corners of the bounding box of ``inside_convex``'s region for ``grow`` >= 0: the
     polygon's edges moved out, whose corners are mitred, so a sharp corner reaches further than
     ``grow`` past the polygon's own box."""
-    poly = ccw(poly)
-    edges = _next(poly) - poly
-    lengths = np.linalg.norm(edges, axis=1)
-    poly, edges, lengths = poly[lengths > 0], edges[lengths > 0], lengths[lengths > 0]
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / lengths[:, None]
+    poly, normals = _edge_normals(poly)
     before = np.concatenate([normals[-1:], normals[:-1]])  # the normal of the edge ending at each corner
     # The two moved edges meet at corner + grow * (n1 + n2) / (1 + n1 . n2).
     corners = poly + grow * (before + normals) / (1 + np.einsum("ij,ij->i", before, normals))[:, None]
@@ -127,7 +125,7 @@ def inside_convex_grid(xs: np.ndarray, ys: np.ndarray, poly: np.ndarray, grow: f
     along x and one along y, the same numbers exactly: with a normal component of 0 or +-1
     each product in ``points @ normals.T`` is exact, so the dot product is +-x or +-y however
     it is summed. A floor of a quarter of a million cells costs two short vectors then."""
-    normals, offsets = _half_planes(poly)
+    normals, offsets = half_planes(poly)
     unit = (normals == 0) | (np.abs(normals) == 1)
     if not (np.all(unit) and np.all((normals == 0).sum(axis=1) == 1)):
         points = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
