@@ -28,6 +28,9 @@ from .render import View, render_views
 from .scene import Light, Room, Scene
 from .seeding import stage_rng
 
+# What stage timings read: the wall clock, as a run's statistics report it; a profile of CPU work
+# alone (benchmarks/cpu_profile.py) sets time.process_time.
+STAGE_CLOCK = time.perf_counter
 STAGES = ("compose", "physics", "camera", "render", "relations", "questions")
 
 
@@ -49,11 +52,11 @@ def _timed(seconds: dict[str, float], stage: str, peaks: dict[str, int] | None =
     if tracing:
         tracemalloc.reset_peak()
         held = tracemalloc.get_traced_memory()[0]
-    start = time.perf_counter()
+    start = STAGE_CLOCK()
     try:
         yield
     finally:
-        seconds[stage] = seconds.get(stage, 0.0) + time.perf_counter() - start
+        seconds[stage] = seconds.get(stage, 0.0) + STAGE_CLOCK() - start
         if tracing:
             peaks[stage] = max(peaks.get(stage, 0), tracemalloc.get_traced_memory()[1] - held)
 
