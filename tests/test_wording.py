@@ -270,3 +270,17 @@ def test_verify_rechecks_the_wording_rules_from_the_record():
     views = {"self": v, "other": view(away, facing, bowl, T_world_cam=turned)}
     assert _check_wording({"kind": "camera_turn"}, [], [], views) == [
         "camera move asked between views a person cannot compare"]
+
+
+def test_names_with_a_head_noun_have_their_plural_spelt_out():
+    """"Count the pair of scissorses" (annotator, read 31): a name like "pair of scissors" takes
+    its plural on the head noun, which the default rule (add s or es) cannot know."""
+    book = Phrasebook.get()
+    names = {c["name"] for c in yaml.safe_load(CATALOGUE.read_text(encoding="utf-8"))["categories"].values()
+             if "name" in c}
+    assert "pair of scissors" in names
+    for name in names:
+        if " of " in name:
+            assert name in book.data["plurals"], name
+    assert book.plural("pair of scissors") == "pairs of scissors"
+    assert book.plural("loaf of bread") == "loaves of bread" and book.plural("box") == "boxes"
