@@ -798,3 +798,45 @@ def test_shorter_is_not_asked_of_a_thing_lying_longer_than_the_other_stands():
     screwdriver = _facts({"id": 0, "category": "screwdriver", "at": [-0.2, 0.2, 0.0], "size": [0.197, 0.03, 0.029]})
     glass = _facts({"id": 1, "category": "wine_glass", "at": [0.2, 0.2, 0.0], "size": [0.08, 0.08, 0.182]})
     assert PREDICATES["shorter_than"](view(screwdriver, glass), screwdriver, glass) is None
+
+
+def test_apart_is_said_only_where_the_picture_shows_the_gap():
+    """A cake in front of a book 8.3 cm behind it hid the gap, its rim on the book's edge in the
+    picture: "is the red book not touching the cake?" could not be answered by looking (read 32)."""
+    from helpers import SHAPE, obj
+
+    book, cake = obj(0, "book", "red", -0.1, 0.3), obj(1, "cake", "white", 0.1, 0.3)  # 12 cm apart
+    seen_apart = view(book, cake)
+    assert PREDICATES["touching"](seen_apart, book, cake) is False
+    assert PREDICATES["separated"](seen_apart, book, cake) is True
+    seg = np.full(SHAPE, -1, dtype=np.int32)
+    seg[50:60, 60:70], seg[50:60, 70:80] = 1, 0  # the nearer cake's pixels against the book's
+    hidden = dataclasses.replace(seen_apart, seg=seg, cache={})
+    assert PREDICATES["touching"](hidden, book, cake) is None
+    assert PREDICATES["separated"](hidden, book, cake) is None
+
+
+def test_a_free_spot_beside_a_thing_is_not_past_the_next_thing():
+    """"A vacant place to the left of the rightmost keyboard" was past the other keyboard, 36 cm
+    away, where 19 cm of table beside it lay free (read 32): the spot stops at the first thing in
+    the way."""
+    from helpers import obj
+    from refspatial.relations.free_space import Constraint, solve
+
+    right = obj(0, "keyboard", "silver", 0.35, 0.2, size=0.4, height=0.03)  # x 0.15..0.55: its sector reaches 0.57 m on
+    other = obj(1, "keyboard", "white", 0.0, 0.2, size=0.1, height=0.03)  # x -0.05..0.05, 10 cm to its left
+    v = view(right, other)
+    v = dataclasses.replace(v, depth_m=_plane_depth(v), cache={})
+    answer = solve(v, (Constraint("sector", (0,), "left"),), with_mask=False)
+    assert answer is not None
+    x = answer.point_world_m[0]
+    assert 0.05 < x < 0.15, f"the spot at x = {x:.3f} is not between the keyboards"
+
+
+def _plane_depth(v) -> np.ndarray:
+    """Optical-axis depth of the table plane (z = 0) at every pixel, so the plane reads as seen."""
+    h, w = v.seg.shape
+    cols, rows = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    rays = np.stack([cols, rows, np.ones_like(cols)], -1) @ np.linalg.inv(v.K).T @ v.T_world_cam[:3, :3].T
+    t = -v.T_world_cam[2, 3] / rays[..., 2]
+    return (t * 1.0).astype(np.float32)  # rays are scaled to camera-frame z = 1: t is that depth

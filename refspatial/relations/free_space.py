@@ -124,7 +124,8 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     # A metric offset's single point is where its words put it, and keeps only the solver's
     # clearance, not ANSWER_ROOM_M.
     keep = cleared[cells] if offset else cleared[cells] & roomy[cells]
-    valid = valid[keep & _facing_anchors(v, constraints, valid) & _squarely_between(v, constraints, valid)]
+    valid = valid[keep & _facing_anchors(v, constraints, valid) & _squarely_between(v, constraints, valid)
+                  & _short_of_others(v, constraints, valid, support, z)]
     clear = image_clearance(v, support)
     if len(valid) == 0:
         return None
@@ -171,6 +172,30 @@ def _squarely_between(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarr
         across, half_width = corridor(b, d)
         rel = points - q
         keep &= squarely_between(rel @ seg / length**2, np.abs(rel @ across[:2]), length, half_width)
+    return keep
+
+
+def _short_of_others(v: ViewFacts, constraints, points: np.ndarray, support: int, z: float) -> np.ndarray:
+    """Which points lie before the first other thing on the platform that stands in a sector's
+    strip beyond its anchor: "to the left of the rightmost keyboard" is the room beside it, not a
+    spot past the other keyboard 36 cm away (annotator, read 32)."""
+    keep = np.ones(len(points), dtype=bool)
+    for c in constraints:
+        if c.kind != "sector":
+            continue
+        a, axis = v.objects[c.anchors[0]], direction_axis(v, c.direction)
+        along, across = np.array([*axis, 0.0]), np.array([-axis[1], axis[0], 0.0])
+        edge = a.interval_along(along, float(a.center_world_m[:2] @ axis))[1]
+        lo, hi = a.interval_along(across, float(a.center_world_m[:2] @ across[:2]))
+        stop = np.inf
+        for o in _obstacles(v, support, z):
+            if o.object_id == a.object_id:
+                continue
+            o_lo, o_hi = o.interval_along(across, float(o.center_world_m[:2] @ across[:2]))
+            start = o.interval_along(along, float(o.center_world_m[:2] @ axis))[0]
+            if o_hi > lo and o_lo < hi and start >= edge:
+                stop = min(stop, start)
+        keep &= points @ axis <= stop
     return keep
 
 
