@@ -124,8 +124,7 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     # A metric offset's single point is where its words put it, and keeps only the solver's
     # clearance, not ANSWER_ROOM_M.
     keep = cleared[cells] if offset else cleared[cells] & roomy[cells]
-    valid = valid[keep & _facing_anchors(v, constraints, valid) & _squarely_between(v, constraints, valid)
-                  & _short_of_others(v, constraints, valid, support, z)]
+    valid = valid[keep & _in_strips(v, constraints, valid, support, z) & _squarely_between(v, constraints, valid)]
     clear = image_clearance(v, support)
     if len(valid) == 0:
         return None
@@ -175,18 +174,26 @@ def _squarely_between(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarr
     return keep
 
 
-def _short_of_others(v: ViewFacts, constraints, points: np.ndarray, support: int, z: float) -> np.ndarray:
-    """Which points lie before the first other thing on the platform that stands in a sector's
-    strip beyond its anchor: "to the left of the rightmost keyboard" is the room beside it, not a
-    spot past the other keyboard 36 cm away (annotator, read 32)."""
-    keep = np.ones(len(points), dtype=bool)
-    for c in constraints:
-        if c.kind != "sector":
-            continue
+@dataclass(frozen=True)
+class _Strip:
+    """What a sector's answer point keeps to: its anchor's own width across the direction, up to
+    the first other thing standing in that strip beyond the anchor."""
+
+    across: np.ndarray  # (2,) ground-plane unit vector across the direction
+    lo: float  # the anchor's extent along ``across``
+    hi: float
+    stop: float  # along the direction: where the first other thing in the strip begins (inf: none)
+
+
+def _strip(v: ViewFacts, c: Constraint, support: int, z: float) -> _Strip:
+    """Memoised per view: the four directions from every anchor are solved for statistics and
+    again by the questions."""
+    key = ("free_strip", c.anchors[0], c.direction, support)
+    if key not in v.cache:
         a, axis = v.objects[c.anchors[0]], direction_axis(v, c.direction)
         along, across = np.array([*axis, 0.0]), np.array([-axis[1], axis[0], 0.0])
-        edge = a.interval_along(along, float(a.center_world_m[:2] @ axis))[1]
         lo, hi = a.interval_along(across, float(a.center_world_m[:2] @ across[:2]))
+        edge = a.interval_along(along, float(a.center_world_m[:2] @ axis))[1]
         stop = np.inf
         for o in _obstacles(v, support, z):
             if o.object_id == a.object_id:
@@ -195,24 +202,25 @@ def _short_of_others(v: ViewFacts, constraints, points: np.ndarray, support: int
             start = o.interval_along(along, float(o.center_world_m[:2] @ axis))[0]
             if o_hi > lo and o_lo < hi and start >= edge:
                 stop = min(stop, start)
-        keep &= points @ axis <= stop
-    return keep
+        v.cache[key] = _Strip(across[:2], lo, hi, stop)
+    return v.cache[key]
 
 
-def _facing_anchors(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
-    """Which points lie squarely towards a sector's direction: within its anchor's own width
-    across that direction (the shadow of its ground outline). The region stays RefSpatial's 90
-    degree sector, but the answer point keeps to this strip: a spot 26 cm to the side and 18 cm in
-    front of a lamp 19 cm wide is in front of the candle beside it, not of the lamp (annotator)."""
+def _in_strips(v: ViewFacts, constraints, points: np.ndarray, support: int, z: float) -> np.ndarray:
+    """Which points lie squarely towards each sector's direction: within its anchor's own width
+    across that direction (the shadow of its ground outline), and short of the next thing in that
+    strip. The region stays RefSpatial's 90 degree sector, but the answer point keeps to the
+    strip: a spot 26 cm to the side and 18 cm in front of a lamp 19 cm wide is in front of the
+    candle beside it, not of the lamp (annotator); "to the left of the rightmost keyboard" is the
+    room beside it, not a spot past the other keyboard 36 cm away (annotator, read 32)."""
     keep = np.ones(len(points), dtype=bool)
     for c in constraints:
         if c.kind != "sector":
             continue
-        a, axis = v.objects[c.anchors[0]], direction_axis(v, c.direction)
-        across = np.array([-axis[1], axis[0], 0.0])
-        lo, hi = a.interval_along(across, float(a.center_world_m[:2] @ across[:2]))
-        lateral = points @ across[:2]
-        keep &= (lateral >= lo) & (lateral <= hi)
+        strip = _strip(v, c, support, z)
+        lateral = points @ strip.across
+        keep &= (lateral >= strip.lo) & (lateral <= strip.hi)
+        keep &= points @ direction_axis(v, c.direction) <= strip.stop
     return keep
 
 
