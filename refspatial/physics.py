@@ -30,6 +30,11 @@ def settle(scene: Scene, materials: dict[str, MaterialSpec], recipe: Recipe) -> 
 
     spec_p = recipe["physics"]
     spec = build_spec(scene, materials, SpecOptions(dynamic=True, timestep_s=spec_p["timestep_s"], visual=False))
+    # MuJoCo's sleeping: an island of touching bodies that has stayed below sleep_tolerance (1 mm/s,
+    # AT_REST's own bound) is frozen until something wakes it. Bodies that landed first then cost
+    # nothing while the rest settle: a third of the settle's time on every recipe, with the same
+    # scenes rejected, the same contacts and poses within 0.6 mm (BENCHMARKS.md, thirteenth session).
+    spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
     try:
         model = spec.compile()
     except ValueError as exc:
@@ -50,6 +55,9 @@ def settle(scene: Scene, materials: dict[str, MaterialSpec], recipe: Recipe) -> 
             # At rest well inside the capture limits: the rest of settle_s would change nothing.
             if step * model.opt.timestep >= MIN_SETTLE_S and np.abs(data.qvel).max() < AT_REST:
                 break
+    # Asleep, an island's contacts are not refreshed; every check below reads the state awake.
+    model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    mujoco.mj_forward(model, data)
     settled = tuple(_settled_object(model, data, obj) for obj in scene.objects)
     _check(scene, settled, model, data, spec_p)
     return dataclasses.replace(scene, objects=settled, contacts=contact_pairs(model, data, len(scene.objects)))

@@ -47,3 +47,25 @@ def test_object_beyond_the_edge_falls_and_is_rejected(tiny, catalogue):
     with pytest.raises(SceneRejected) as err:
         settle(bad, catalogue.materials, tiny)
     assert err.value.reason == "fell_off_table"
+
+
+def test_settled_contacts_are_read_with_every_body_awake(tiny, catalogue):
+    """Settling lets resting islands sleep, and a sleeping island's contacts go stale; the scene's
+    contacts must be those of the settled poses simulated awake."""
+    import mujoco
+
+    from refspatial.mjcf import SpecOptions, build_spec
+    from refspatial.physics import contact_pairs
+
+    checked = 0
+    for seed in range(20):
+        try:
+            scene = settle(compose(tiny, catalogue, seed), catalogue.materials, tiny)
+        except SceneRejected:
+            continue
+        model = build_spec(scene, catalogue.materials, SpecOptions(dynamic=True, visual=False)).compile()
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        assert scene.contacts == contact_pairs(model, data, len(scene.objects))
+        checked += len(scene.contacts)
+    assert checked > 0  # some scene had a contact between objects
