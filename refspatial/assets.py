@@ -407,23 +407,23 @@ def build_asset(catalogue: Catalogue, category: str, rng: np.random.Generator, c
     )
 
 
-def build_variants(catalogue: Catalogue, categories: list[str], variants: int) -> int:
+def build_variants(catalogue: Catalogue, categories: list[str], variants: int) -> list[tuple[MeshData, ...]]:
     """Build every shape variant of ``categories`` (and its texture layouts) into the
-    per-process bank, and return how many shapes that is. A warm-up: a long run's scenes find
-    every variant built (benchmarks call it to measure that steady state); records are the same
-    with or without it."""
-    looks, count = load_looks(), 0
+    per-process bank, and return each shape's collision parts. A warm-up: a long run's scenes
+    find every variant built (benchmarks call it to measure that steady state); records are the
+    same with or without it."""
+    looks, out = load_looks(), []
     for category in sorted(set(categories)):
         spec = catalogue.categories[category]
         if spec.mesh is not None:
             continue
         for variant in range(variants):
             params = variant_params(category, spec.params, variant)
-            visual, _ = _shape(spec, params, bank=True)
+            visual, parts = _shape(spec, params, bank=True)
             if any(looks.choices(category, m) for m in spec.materials):
                 _laid_out(looks, spec, params, visual, bank=True)
-            count += 1
-    return count
+            out.append(parts)
+    return out
 
 
 def _shape_key(spec: CategorySpec, params: dict[str, float]) -> tuple:

@@ -9,7 +9,9 @@ static model, which compiles faster. Settling needs no visual meshes either
 
 from __future__ import annotations
 
+import hashlib
 import os
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -66,8 +68,11 @@ def add_objects(spec: mujoco.MjSpec, objects, materials: dict[str, MaterialSpec]
     if opts.visual:
         for name, m in materials.items():
             _add_material(spec, f"mat_{name}", m)
+    assets: dict[str, bytes] = {}
     for obj in objects:
-        _add_object(spec, obj, opts, materials)
+        _add_object(spec, obj, opts, materials, assets)
+    if assets:
+        spec.assets = {**spec.assets, **assets}  # one hand-over: the binding copies the whole map
 
 
 def _shadow_reach_m(scene: Scene) -> float:
@@ -121,8 +126,16 @@ def _visual_settings(spec: mujoco.MjSpec, scene: Scene, opts: SpecOptions) -> No
     spec.stat.center = [0.0, 0.0, scene.table.top_z_m]
 
 
-def _mesh(spec: mujoco.MjSpec, name: str, mesh: MeshData, opts: SpecOptions) -> None:
+def _mesh(spec: mujoco.MjSpec, name: str, mesh: MeshData, opts: SpecOptions,
+          assets: dict[str, bytes] | None = None) -> None:
+    """Add a mesh: as a file beside an exported model (``mesh_dir``), as a content-named asset
+    MuJoCo's compiler cache can reuse (collision parts: ``assets`` collects them), or inline."""
     vertices, faces = mesh.vertices_m, mesh.faces
+    if opts.mesh_dir is None and assets is not None:
+        filename, data = msh_asset(mesh)
+        assets[filename] = data
+        spec.add_mesh(name=name, file=filename)
+        return
     if opts.mesh_dir is None:
         mesh_spec = spec.add_mesh(name=name, uservert=vertices.ravel().tolist(), userface=faces.ravel().tolist())
         if mesh.texcoords is not None:
@@ -138,6 +151,53 @@ def _mesh(spec: mujoco.MjSpec, name: str, mesh: MeshData, opts: SpecOptions) -> 
         filename = f"{name.replace('/', '_')}.stl"
         trimesh.Trimesh(vertices, faces, process=False).export(opts.mesh_dir / filename)
     spec.add_mesh(name=name, file=filename)
+
+
+def msh_asset(mesh: MeshData) -> tuple[str, bytes]:
+    """(file name, bytes) of an untextured mesh (a collision part) in MuJoCo's binary .msh
+    format, named by its content, memoised on the mesh.
+
+    MuJoCo's compiler keeps what it makes of a mesh file (convex hull, its graph, the bounding
+    volume hierarchy) in a per-process asset cache keyed by file name: a shape variant's
+    collision parts, met again in a later scene, then cost nothing to compile (a settle's
+    compile falls from about 10 to 1.6 ms once the bank's variants have been seen). The model is
+    the same as from inline vertices, which the binding also stores as float32. Only collision
+    parts go this way: a cached mesh holds ~750 bytes a vertex, and visual meshes are ten times
+    larger and meet the render model's compile only."""
+    if mesh.texcoords is not None:
+        raise ValueError("msh_asset: a textured mesh needs its texture coordinates inline")
+    try:
+        return mesh.__dict__["_msh"]
+    except KeyError:
+        pass
+    vertices = np.ascontiguousarray(mesh.vertices_m, dtype="<f4")
+    faces = np.ascontiguousarray(mesh.faces, dtype="<i4")
+    data = struct.pack("<4i", len(vertices), 0, 0, len(faces)) + vertices.tobytes() + faces.tobytes()
+    out = (f"{hashlib.blake2b(data, digest_size=16).hexdigest()}.msh", data)
+    mesh.__dict__["_msh"] = out  # a frozen dataclass's own memo, as its cached properties keep theirs
+    return out
+
+
+WARM_BATCH = 256  # meshes per warm-up compile: one model of every part would hold gigabytes at once
+
+
+def warm_mesh_cache(parts) -> int:
+    """Compile collision parts into MuJoCo's asset cache, as a long run's scenes leave it (for
+    benchmarks of that steady state; models are the same either way); returns how many."""
+    assets = dict(msh_asset(p) for p in parts)
+    names = sorted(assets)
+    for start in range(0, len(names), WARM_BATCH):
+        spec = mujoco.MjSpec()
+        spec.compiler.usethread = False
+        batch = names[start:start + WARM_BATCH]
+        spec.assets = {n: assets[n] for n in batch}
+        for k, filename in enumerate(batch):
+            spec.add_mesh(name=f"part{k}", file=filename)
+            # Only a mesh a geom uses is cached as scenes find it (with its inertia worked out).
+            spec.worldbody.add_body().add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"part{k}",
+                                               density=DENSITY_KG_M3)
+        spec.compile()
+    return len(names)
 
 
 def _write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, face_uv: np.ndarray) -> None:
@@ -159,7 +219,8 @@ def _textured_material(spec: mujoco.MjSpec, name: str, asset, materials: dict[st
     return mat.name
 
 
-def _add_object(spec: mujoco.MjSpec, obj, opts: SpecOptions, materials: dict[str, MaterialSpec]) -> None:
+def _add_object(spec: mujoco.MjSpec, obj, opts: SpecOptions, materials: dict[str, MaterialSpec],
+                assets: dict[str, bytes]) -> None:
     name = body_name(obj.object_id)
     body = spec.worldbody.add_body(name=name, pos=obj.pose.pos_world_m, quat=obj.pose.quat_wxyz)
     asset = obj.asset
@@ -177,7 +238,7 @@ def _add_object(spec: mujoco.MjSpec, obj, opts: SpecOptions, materials: dict[str
     body.add_freejoint(name=f"{name}_free")
     for k, part in enumerate(asset.collision):
         mesh_name = f"{name}_col{k}"
-        _mesh(spec, mesh_name, part, opts)
+        _mesh(spec, mesh_name, part, opts, assets)
         body.add_geom(
             name=mesh_name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh_name, group=COLLISION_GROUP,
             rgba=[0.5, 0.5, 0.5, 0.0], density=DENSITY_KG_M3, friction=FRICTION, condim=6,

@@ -76,18 +76,22 @@ def build_scene(recipe: Recipe, catalogue: Catalogue, seed: int, seconds: dict[s
 
 def warm_banks(recipe: Recipe, catalogue: Catalogue) -> tuple[int, int]:
     """Make every texture image and shape variant the recipe can ask for into this process's
-    banks, as a long run has after a few hundred scenes, and return how many of each. For
-    benchmarks that measure that steady state; records are the same with or without it."""
+    banks, and the variants' meshes into MuJoCo's compiler cache, as a long run has after a few
+    hundred scenes, and return how many images and shapes. For benchmarks that measure that
+    steady state; records are the same with or without it."""
     from .assets import build_variants
     from .compose import category_pool
     from .looks import load_looks, texture_bank
+    from .mjcf import warm_mesh_cache
 
     images = texture_bank(load_looks(), catalogue.categories, catalogue.colors)
     variants = recipe.option("objects", "shape_variants")
     pool = category_pool(recipe, catalogue)
     if recipe.option("furniture", "count")[1] > 0:
         pool += category_pool(recipe, catalogue, "furniture")
-    return images, build_variants(catalogue, pool, variants) if variants else 0
+    shapes = build_variants(catalogue, pool, variants) if variants else []
+    warm_mesh_cache(part for parts in shapes for part in parts)
+    return images, len(shapes)
 
 
 def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutcome:

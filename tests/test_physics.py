@@ -69,3 +69,33 @@ def test_settled_contacts_are_read_with_every_body_awake(tiny, catalogue):
         assert scene.contacts == contact_pairs(model, data, len(scene.objects))
         checked += len(scene.contacts)
     assert checked > 0  # some scene had a contact between objects
+
+
+def test_collision_parts_as_cached_assets_compile_to_the_inline_model(tiny, catalogue):
+    """Settling hands collision parts to MuJoCo as content-named .msh assets so that its compiler
+    cache serves them again in later scenes; the compiled model must be the one inline vertices
+    give (every mesh, geom and body array), and a second compile must find them cached."""
+    import mujoco
+
+    from refspatial import mjcf
+
+    scene, _ = _first_stable(tiny, catalogue)
+    opts = mjcf.SpecOptions(dynamic=True, visual=False)
+    cached = mjcf.build_spec(scene, catalogue.materials, opts)
+    inline = mjcf.build_spec(scene, catalogue.materials, opts)
+    for mesh in inline.meshes:  # the same parts, handed over as vertex lists
+        part = next(p for o in scene.objects for k, p in enumerate(o.asset.collision)
+                    if mesh.name == f"{mjcf.body_name(o.object_id)}_col{k}")
+        mesh.file = ""
+        mesh.uservert = part.vertices_m.ravel().tolist()
+        mesh.userface = part.faces.ravel().tolist()
+    inline.assets = {}
+    a, b = cached.compile(), inline.compile()
+    assert a.nmesh == b.nmesh > 0
+    for field in ("mesh_vert", "mesh_face", "mesh_graph", "mesh_polyvert", "geom_size", "geom_pos", "geom_quat",
+                  "body_mass", "body_inertia", "body_ipos", "body_iquat"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+    cache = mujoco.mj_getCache()
+    held = mujoco.mj_getCacheSize(cache)
+    mjcf.build_spec(scene, catalogue.materials, opts).compile()
+    assert mujoco.mj_getCacheSize(cache) == held > 0  # served from the cache, nothing new stored
