@@ -145,8 +145,11 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     if with_mask:
         mask = _image_mask(v, constraints, raster, z, first, last)
         if not _on_mask(v, mask, point):
+            # The snapped point keeps to everything the solve's own points kept to: a snap that
+            # only stayed in the sector landed 2 cm beside a strip's anchor (test, new scenes).
             snapped = _snap(v, mask & clear, uv[0], z, lambda p: _in_regions(v, constraints, p) &
-                            _free_exact(v, p, support, polygon, z))
+                            _free_exact(v, p, support, polygon, z) & _in_strips(v, constraints, p, support, z) &
+                            _squarely_between(v, constraints, p) & (offset | _roomy_exact(v, p, support, z)))
             if snapped is None:
                 return None
             point, world = snapped, _lift(v, snapped, z)
@@ -453,6 +456,16 @@ def _free_exact(v: ViewFacts, points: np.ndarray, support: int, polygon: np.ndar
     keep = inside_convex(points, polygon, grow=-EDGE_MARGIN_M)
     for o in _obstacles(v, support, z):
         keep &= ~inside_convex(points, o.footprint_world, grow=CLEARANCE_M)
+    return keep
+
+
+def _roomy_exact(v: ViewFacts, points: np.ndarray, support: int, z: float) -> np.ndarray:
+    """The roomy raster's test (ANSWER_ROOM_M clear of every obstacle's ground outline) at
+    arbitrary points."""
+    keep = np.ones(len(points), dtype=bool)
+    for o in _obstacles(v, support, z):
+        outline = o.ground_outline if o.ground_outline is not None else o.footprint_world
+        keep &= ~inside_convex(points, outline, grow=ANSWER_ROOM_M)
     return keep
 
 
