@@ -80,7 +80,9 @@ def test_lights_and_looks_follow_the_recipe(rendered, family: str) -> None:
 
 def test_objects_are_not_flat_colour(rendered) -> None:
     """Texture and light vary over objects: few pixels repeat their object's most common colour
-    (18-44 % did with flat colours), and nothing white is burnt out."""
+    (18-44 % did with flat colours), and nothing white is burnt out. A black object's shadowed
+    side is one near-black colour however it is lit (a black basket and chair: 38 and 41 %), so
+    objects whose commonest colour is near black are left out of the share."""
     flat = total = 0
     for family in FAMILIES:
         _, scene, views = rendered[family]
@@ -88,10 +90,12 @@ def test_objects_are_not_flat_colour(rendered) -> None:
             px = views[0].rgb[views[0].seg == obj.object_id]
             if len(px) == 0:
                 continue
-            colours, counts = np.unique(px, axis=0, return_counts=True)
-            flat, total = flat + counts.max(), total + len(px)
             assert (px == 255).all(axis=1).mean() < 0.1, f"{family}: the {obj.asset.category} is burnt out"
-    assert flat / total < 0.12  # 9.5 % on these four scenes, mostly a black cabinet in shadow
+            colours, counts = np.unique(px, axis=0, return_counts=True)
+            if colours[counts.argmax()].max() < 16:
+                continue
+            flat, total = flat + counts.max(), total + len(px)
+    assert total > 0 and flat / total < 0.12
 
 
 def test_the_room_is_a_pure_function_of_recipe_and_seed(catalogue) -> None:
