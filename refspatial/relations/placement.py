@@ -101,7 +101,8 @@ def _edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
 
 @predicate("at_edge", family="corner_edge", arity=1, frame="world")
 def at_edge(v: ViewFacts, a: ObjectFacts) -> Verdict:
-    """A stands on the table with its footprint within 10 cm of a table edge (False beyond 25 cm).
+    """A stands on the table with its footprint within 10 cm of a table edge, and so does its bulk
+    (its centre, less half its footprint's narrower side); False beyond 25 cm.
 
     Only for objects whose support is the table and that no container holds; undecided otherwise.
     """
@@ -109,7 +110,16 @@ def at_edge(v: ViewFacts, a: ObjectFacts) -> Verdict:
     if d is None:
         return None
     nearest = float(d.min())
-    return True if nearest <= EDGE_M[0] else (False if nearest >= EDGE_M[1] else None)
+    if nearest <= EDGE_M[0]:
+        # Its bulk must be there too, not just a handle's tip: a pan whose handle came 8 cm from
+        # the counter's back edge, its body 18 cm in, was not "at the edge" (annotator, read 35).
+        # The bulk's edge: the centre's distance less half the footprint's narrower side.
+        axis = int(np.argmin(d))
+        centre_in = float(np.asarray(v.table_size_m)[axis] / 2 - abs(a.center_world_m[axis]))
+        c = a.footprint_world
+        narrow = min(float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1])))
+        return True if centre_in - narrow / 2 <= EDGE_M[0] else None
+    return False if nearest >= EDGE_M[1] else None
 
 
 @predicate("at_corner", family="corner_edge", arity=1, frame="world")
