@@ -840,3 +840,35 @@ def _plane_depth(v) -> np.ndarray:
     rays = np.stack([cols, rows, np.ones_like(cols)], -1) @ np.linalg.inv(v.K).T @ v.T_world_cam[:3, :3].T
     t = -v.T_world_cam[2, 3] / rays[..., 2]
     return (t * 1.0).astype(np.float32)  # rays are scaled to camera-frame z = 1: t is that depth
+
+
+def test_a_pan_whose_handle_alone_reaches_the_edge_is_not_at_the_edge():
+    """A pan's handle came 8 cm from the counter's back edge while its body sat 18 cm in: a person
+    does not call it at the edge (annotator, read 35). The same footprint turned along the edge,
+    body and all within 10 cm of it, is."""
+    edge = 0.4 - 0.08  # the helpers' table is 1.2 x 0.8 m; the footprint's far side 8 cm from its edge
+    pan = _facts({"id": 0, "category": "pan", "at": [0.0, edge - 0.225, 0.0], "size": [0.25, 0.45, 0.05]})
+    along = _facts({"id": 0, "category": "pan", "at": [0.0, edge - 0.125, 0.0], "size": [0.45, 0.25, 0.05]})
+    pointing, lying = view(pan), view(along)
+    assert PREDICATES["at_edge"](pointing, pan) is None
+    assert PREDICATES["at_edge"](lying, along) is True
+
+
+def test_a_black_mug_in_a_black_basket_is_not_asked_about():
+    """A black mug inside a black basket averaged RGB (4, 4, 4) against the basket's (6, 5, 5): a
+    person could not find it (annotator, read 35). A red mug in the same basket stands out."""
+    from refspatial.colour import lab_of_mean
+    from refspatial.relations.facts import _lost_in_containers
+    from refspatial.scene import Cavity
+
+    black, red = lab_of_mean(np.array([6.0, 5.0, 5.0])), lab_of_mean(np.array([180.0, 30.0, 30.0]))
+    basket = _facts({"id": 0, "category": "basket", "at": [0.0, 0.1, 0.0], "size": [0.3, 0.3, 0.12]})
+    basket = dataclasses.replace(basket, cavity=Cavity("box", (0.14, 0.14), 0.01, 0.12), lab=black)
+    mug = _facts({"id": 1, "category": "mug", "at": [0.0, 0.1, 0.01], "size": [0.08, 0.08, 0.1]})
+    dark, bright = (dataclasses.replace(mug, lab=lab_of_mean(np.array([4.0, 4.0, 4.0]))),
+                    dataclasses.replace(mug, lab=red))
+    assert [o.status for o in _lost_in_containers([basket, dark])] == ["visible", "marginal"]
+    assert [o.status for o in _lost_in_containers([basket, bright])] == ["visible", "visible"]
+    beside = dataclasses.replace(dark, aabb_world_m=dark.aabb_world_m + [0.4, 0.0, 0.0],
+                                 footprint_world=dark.footprint_world + [0.4, 0.0])
+    assert [o.status for o in _lost_in_containers([basket, beside])] == ["visible", "visible"]
