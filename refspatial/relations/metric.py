@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 
 from .facts import ObjectFacts, ViewFacts
-from .geometry import project, widths
+from .geometry import polygon_area, project, widths
 from .registry import Quantity, Verdict, compare, predicate
 from .vertical import contained
 
@@ -19,6 +19,7 @@ VOLUME_MARGIN = 0.20  # share of the larger volume, for both readings of "bigger
 # covers there, must agree beyond this share of the larger (a cake in front looks larger than
 # the one at the back that is bigger: annotator).
 APPARENT_MARGIN = 0.10
+FLAT_SHARE = 0.25  # height against the footprint's shorter side, at most, for a thing lying flat
 # ...and its longest dimension (longest ground span or height) may not be clearly shorter: a phone
 # 16 cm long does not look smaller than a 9 cm jar, whatever the volumes say (annotator).
 LONGEST_MARGIN = 0.10
@@ -67,16 +68,30 @@ def bigger_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     reading and smaller by another, is undecided and never asked; so is a big cake at the back
     that looks smaller than a small one in front, and a jar against a phone whose length is
     clearly longer than anything of the jar's (its longest dimension, 10 % margin, may not
-    contradict)."""
+    contradict). Two flat things (boards, plates, books on their backs) are compared by their
+    faces too: the ground outline's area must be larger by the same 20 %."""
     enclosed = compare(a.volume_m3 - b.volume_m3, VOLUME_MARGIN * max(a.volume_m3, b.volume_m3))
     box = compare(a.box_volume_m3 - b.box_volume_m3, VOLUME_MARGIN * max(a.box_volume_m3, b.box_volume_m3))
     sa, sb = apparent_area_px(v, a), apparent_area_px(v, b)
     looks = compare(sa - sb, APPARENT_MARGIN * max(sa, sb))
     if enclosed is None or not enclosed == box == looks:
         return None
+    if _flat(a) and _flat(b):
+        # Flat things are as big as their face: a cutting board thicker than another but with the
+        # smaller face (0.069 against 0.073 m^2) was "larger" by volume only (annotator, read 36).
+        fa, fb = polygon_area(a.ground_outline), polygon_area(b.ground_outline)
+        if compare(fa - fb, VOLUME_MARGIN * max(fa, fb)) is not enclosed:
+            return None
     la, lb = _longest(v, a), _longest(v, b)
     longest = compare(la - lb, LONGEST_MARGIN * max(la, lb))
     return None if longest is (not enclosed) else enclosed  # the longest may be a tie, not the opposite
+
+
+def _flat(o: ObjectFacts) -> bool:
+    """Lying flat: no taller than FLAT_SHARE of its footprint's shorter side (a plate, a board,
+    a book on its back)."""
+    sides = o.footprint_sides_m
+    return sides is not None and o.height_m <= FLAT_SHARE * sides[0]
 
 
 def _longest(v: ViewFacts, o: ObjectFacts) -> float:
