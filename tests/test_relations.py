@@ -341,3 +341,19 @@ def test_closer_to_the_camera_is_antisymmetric_for_intervals_sharing_an_end():
     v = view(a, b)
     ab, ba = PREDICATES["closer_to_camera"](v, a, b), PREDICATES["closer_to_camera"](v, b, a)
     assert (ab is None) == (ba is None) and (ab is None or ba == (not ab))
+
+
+def test_an_object_seen_only_as_slivers_is_not_asked_about():
+    """A box behind a chair showed 46 % of itself as two slivers between the chair's legs (356 px),
+    and nothing there read as a box (annotator, read 36); the same share in one piece does."""
+    from refspatial.relations.facts import in_one_piece
+
+    slivers = np.zeros((40, 60), dtype=bool)
+    slivers[5:35, 10:16] = slivers[5:35, 40:46] = True  # two pieces of 180 px
+    whole = np.zeros((40, 60), dtype=bool)
+    whole[5:35, 10:22] = True  # 360 px in one piece
+    assert not in_one_piece(slivers, 0.46, 311)
+    assert in_one_piece(whole, 0.46, 311)
+    split_by_a_pen = whole.copy()
+    split_by_a_pen[:, 15] = False  # a thin occluder leaves two big pieces: 150 and 180 px of 0.8
+    assert in_one_piece(split_by_a_pen, 0.8, 100)

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cached_property
 
+import cv2
 import numpy as np
 from scipy.spatial import ConvexHull
 
@@ -29,6 +30,12 @@ MIN_VISIBLE_SHARE = 0.4  # an object less visible than this (of its silhouette) 
 # image, does not read as a book (annotator): what is asked about must span this share of the
 # image's height both ways (10 px at 960x540; relative, as VISIBLE_SHARE_OF_IMAGE is).
 MIN_VISIBLE_SPAN_SHARE = 0.0185
+# A box behind a chair showed 46 % of itself as two dark slivers between the chair's legs, 356 px
+# in all, and nothing there read as a box (annotator, read 36): the largest connected piece of
+# what shows must itself be big enough to ask about and hold this share of the silhouette.
+# Objects showing WHOLE_SHARE of their silhouette or more are not split by anything that matters.
+MIN_PIECE_SHARE = 0.3
+WHOLE_SHARE = 0.9
 SUPPORT_GAP_M = 0.05  # RefSpatial: a platform top within 5 cm of an object's bottom...
 SUPPORT_COVER = 0.7  # ...covering >= 70 % of its footprint supports it
 TABLE = -1  # support id of the table
@@ -161,6 +168,7 @@ class ViewFacts:
     table_levels_m: tuple[float, ...] = ()  # shelf boards above the top; board k is support -(k + 2)
     contacts: frozenset[tuple[int, int]] = frozenset()  # object pairs touching, smaller id first, -1 = table
     table_surface: str = "table"  # or "floor": a room's floor, whose edges are out of the picture
+    prop_kinds: frozenset[str] = frozenset()  # the room's background pieces ("plant", "sofa"...)
     # Memo of derived values (predicate verdicts, descriptions): question search asks the same things often.
     cache: dict = field(default_factory=dict, repr=False)
 
@@ -271,6 +279,7 @@ def view_facts(scene: Scene, view: View, shapes: tuple[PosedShape, ...] | None =
     return ViewFacts(tuple(objects), right, forward, view.seg, view.depth_m, view.K, view.T_world_cam,
                      tuple(scene.table.size_m), scene.table.top_z_m, tuple(scene.table.levels_m),
                      frozenset(scene.contacts), table_surface=scene.table.surface,
+                     prop_kinds=frozenset(p.kind for p in scene.room.props),
                      cache={BOXES_KEY: boxes, PIXELS_KEY: pixels})
 
 
@@ -291,6 +300,8 @@ def _object_facts(obj: PlacedObject, shape: PosedShape, view: View, right, forwa
     box = box_of(boxes, obj.object_id)  # the mask's bounding box: its span both ways
     seen_whole = px >= min_px and share >= MIN_VISIBLE_SHARE and box is not None and \
         min(box[0].stop - box[0].start, box[1].stop - box[1].start) >= MIN_VISIBLE_SPAN_SHARE * view.seg.shape[0]
+    if seen_whole and share < WHOLE_SHARE:
+        seen_whole = in_one_piece(view.seg[box] == obj.object_id, share, min_px)
     status = "visible" if seen_whole else ("marginal" if px else "hidden")
     return ObjectFacts(
         obj.object_id, asset.category, asset.name, asset.color, shape.aabb, float(centre @ right),
@@ -300,6 +311,17 @@ def _object_facts(obj: PlacedObject, shape: PosedShape, view: View, right, forwa
         visible_share=share, cavity=asset.cavity, is_support=asset.support, pose_world=shape.pose,
         lab=stats.lab,
     )
+
+
+def in_one_piece(mask: np.ndarray, share: float, min_px: float) -> bool:
+    """Whether the largest 8-connected piece of an object's visible mask (``share`` of its
+    silhouette in all) is asked-about size by itself and holds MIN_PIECE_SHARE of the silhouette."""
+    n, _, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
+    if n < 2:
+        return False
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    largest = int(areas.max())
+    return largest >= min_px and largest / int(areas.sum()) * share >= MIN_PIECE_SHARE
 
 
 def _outline(verts_world: np.ndarray) -> np.ndarray:
