@@ -883,3 +883,22 @@ def test_a_thicker_board_with_the_smaller_face_is_not_the_larger():
     big = _facts({"id": 1, "category": "cutting_board", "at": [0.0, 0.25, 0.0], "size": [0.300, 0.160, 0.012]})
     assert PREDICATES["bigger_than"](view(yellow, black), yellow, black) is None
     assert PREDICATES["bigger_than"](view(yellow, big), yellow, big) is True
+
+
+def test_a_plant_pot_is_not_named_in_a_room_with_a_potted_plant():
+    """A potted plant in a terracotta pot by the wall is a plant pot to a reader: "which is further
+    left, the plant pot or the teddy bear?" had two answers (annotator, read 36)."""
+    from refspatial.questions import questions_for_view
+    from refspatial.questions.refer import simple_refs
+
+    pot = _facts({"id": 0, "category": "plant_pot", "at": [-0.2, 0.3, 0.0], "size": [0.12, 0.12, 0.12]})
+    bear = _facts({"id": 1, "category": "teddy_bear", "at": [0.2, 0.3, 0.0], "size": [0.15, 0.12, 0.2]})
+    plain = view(pot, bear)
+    with_plant = dataclasses.replace(view(pot, bear), prop_kinds=frozenset({"plant", "sofa"}))
+    assert simple_refs(plain, pot) and not simple_refs(with_plant, pot)
+    spec = {"per_view": 12, "families": {"choice": 0.5, "quantitative": 0.5}, "attempts_per_question": 8,
+            "answer_points": 1, "steps": {"1": 0.5, "2": 0.5}}
+    def asked(v):
+        return [q["prompt"] for seed in range(6) for q in questions_for_view(v, spec, np.random.default_rng(seed), "k")]
+    assert any("plant pot" in p for p in asked(plain))
+    assert asked(with_plant) and not any("plant pot" in p for p in asked(with_plant))

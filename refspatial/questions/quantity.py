@@ -9,6 +9,7 @@ from .balance import QUANTITY_WEIGHTS, weighted_index
 from .common import QA, make_qa, over_objects
 from .phrases import Phrasebook
 from .program import Node, ProgramError, answers_to, execute
+from .refer import named_like_a_prop
 
 ONE_OBJECT = ("depth", "camera_distance", "height", "width", "rotate_horizontal", "rotate_vertical")
 TWO_OBJECTS = ("distance_between", "centre_distance", "angle_between")
@@ -54,7 +55,9 @@ def _words(kind: str, value: float) -> str:
 def _count(views, rng) -> QA | None:
     view = views["self"]
     # Not "how many boxes?" beside a tissue box: whether it counts is anyone's guess.
+    # Nor "how many plant pots?" in a room with a potted plant by the wall.
     categories = sorted({o.category for o in view.objects if o.status != "hidden"
+                         and not named_like_a_prop(view, o.category)
                          and not any(answers_to(view, x, o.category) for x in view.objects if x.category != o.category)})
     if not categories:
         return None

@@ -161,7 +161,16 @@ def colour_tells_apart(view: ViewFacts, target: ObjectFacts, category: str | Non
     return view.cache[key]
 
 
+def named_like_a_prop(view: ViewFacts, category: str | None) -> bool:
+    """Whether a background piece in the room looks like a thing of this category (templates.yaml
+    ``prop_lookalikes``), so that its name would pick more than the scene's own objects."""
+    table = _phrasebook().data["prop_lookalikes"]
+    return category is not None and any(category in table.get(kind, ()) for kind in view.prop_kinds)
+
+
 def _simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
+    if named_like_a_prop(view, target.category):
+        return []
     base = Ref(target.object_id, target.category, target.name)
     heads = [base]
     if colour_tells_apart(view, target, target.category):
@@ -278,6 +287,8 @@ def _head(view: ViewFacts, category: str | None, color: str | None) -> int:
     """The head's candidates as a bit mask; 0 when one of them is only partly visible, since
     relations about a cut-off object cannot be decided safely (memoised per view)."""
     key = ("head", category, color)
+    if key not in view.cache and named_like_a_prop(view, category):
+        view.cache[key] = 0
     if key not in view.cache:
         ids = [o.object_id for o in view.objects if o.status != "hidden"
                and answers_to(view, o, category) and color in (None, o.color)]

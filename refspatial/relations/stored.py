@@ -79,8 +79,10 @@ def facts_from_record(scene: dict, seg: np.ndarray, depth_m: np.ndarray, K: np.n
     contacts = frozenset(tuple(p) for p in scene.get("contacts", []))
     table = scene["table"]
     levels = tuple(table.get("levels_m", ()))
+    props = frozenset(p["kind"] for p in scene.get("room", {}).get("props", ()))
     return ViewFacts(objects, right, forward, seg, depth_m, K, T, tuple(table["size_m"]), table["top_z_m"],
-                     levels, contacts, table_surface=table.get("surface", "table"), cache={BOXES_KEY: boxes})
+                     levels, contacts, table_surface=table.get("surface", "table"), prop_kinds=props,
+                     cache={BOXES_KEY: boxes})
 
 
 def _object_facts(o: dict, stats: PixelStats, right, forward) -> ObjectFacts:
