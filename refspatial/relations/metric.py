@@ -19,10 +19,10 @@ VOLUME_MARGIN = 0.20  # share of the larger volume, for both readings of "bigger
 # covers there, must agree beyond this share of the larger (a cake in front looks larger than
 # the one at the back that is bigger: annotator).
 APPARENT_MARGIN = 0.10
-FLAT_SHARE = 0.25  # height against the footprint's shorter side, at most, for a thing lying flat
 # ...and its longest dimension (longest ground span or height) may not be clearly shorter: a phone
 # 16 cm long does not look smaller than a 9 cm jar, whatever the volumes say (annotator).
 LONGEST_MARGIN = 0.10
+FLAT_SHARE = 0.25  # height against the footprint's shorter side, at most, for a thing lying flat
 WIDTH_MARGIN = (0.02, 0.20)  # (absolute m, share of the wider)
 RAISED_TOP_M = 0.25  # a support this tall is furniture with a raised top (side table, stool, cabinet)
 NEAR_GAP = (0.05, 0.5)  # near: footprint gap <= max(5 cm, 0.5 x mean footprint size)
