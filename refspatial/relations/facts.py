@@ -11,7 +11,7 @@ others are not asked about.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import cv2
@@ -359,8 +359,6 @@ def _with_supports(objects: list[ObjectFacts], fixed: dict[int, float], table_si
 
     ``fixed`` are the table top and shelf boards (support id -> height); objects win over them.
     """
-    from dataclasses import replace
-
     table_z = fixed[TABLE]
     out = []
     for o in objects:
@@ -384,8 +382,6 @@ def _lost_in_containers(objects: list[ObjectFacts]) -> list[ObjectFacts]:
     find: a black mug in a black basket averaged RGB (4, 4, 4) against the basket's (6, 5, 5),
     its rim visible only brightened six times (annotator, read 35). Such things are marginal:
     drawn and stored, never asked about or used as anchors."""
-    from dataclasses import replace
-
     from ..colour import DISTINCT_DELTA_E, delta_e
     from .vertical import containment  # it reads these facts: imported late, as vertical imports this module
 

@@ -411,8 +411,7 @@ class _Raster:
             cleared[rows, cols] = _cleared(image_clearance(v, support), uv)
             roomy[rows, cols] = True
             for o in _obstacles(v, support, z):
-                self._clear_of(roomy, o.ground_outline if o.ground_outline is not None else o.footprint_world,
-                               ANSWER_ROOM_M)
+                self._clear_of(roomy, o.ground_outline, ANSWER_ROOM_M)
             self._flags = seen, cleared, roomy
         return self._flags
 
@@ -464,8 +463,7 @@ def _roomy_exact(v: ViewFacts, points: np.ndarray, support: int, z: float) -> np
     arbitrary points."""
     keep = np.ones(len(points), dtype=bool)
     for o in _obstacles(v, support, z):
-        outline = o.ground_outline if o.ground_outline is not None else o.footprint_world
-        keep &= ~inside_convex(points, outline, grow=ANSWER_ROOM_M)
+        keep &= ~inside_convex(points, o.ground_outline, grow=ANSWER_ROOM_M)
     return keep
 
 

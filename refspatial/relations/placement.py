@@ -116,9 +116,7 @@ def at_edge(v: ViewFacts, a: ObjectFacts) -> Verdict:
         # The bulk's edge: the centre's distance less half the footprint's narrower side.
         axis = int(np.argmin(d))
         centre_in = float(np.asarray(v.table_size_m)[axis] / 2 - abs(a.center_world_m[axis]))
-        c = a.footprint_world
-        narrow = min(float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1])))
-        return True if centre_in - narrow / 2 <= EDGE_M[0] else None
+        return True if centre_in - a.footprint_sides_m[0] / 2 <= EDGE_M[0] else None
     return False if nearest >= EDGE_M[1] else None
 
 
