@@ -117,7 +117,10 @@ def _add(program: list[Node], node: Node) -> int:
 
 
 def resolves(ref: Ref, view: ViewFacts) -> bool:
-    """The description picks exactly its object, without near-ties or idle relations."""
+    """The description picks exactly its object, without near-ties or idle relations, by a name
+    that no background piece of the room also answers to."""
+    if named_like_a_prop(view, ref.category):
+        return False
     program: list[Node] = []
     compile_ref(ref, program)
     try:
@@ -169,8 +172,6 @@ def named_like_a_prop(view: ViewFacts, category: str | None) -> bool:
 
 
 def _simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
-    if named_like_a_prop(view, target.category):
-        return []
     base = Ref(target.object_id, target.category, target.name)
     heads = [base]
     if colour_tells_apart(view, target, target.category):
@@ -287,11 +288,11 @@ def _head(view: ViewFacts, category: str | None, color: str | None) -> int:
     """The head's candidates as a bit mask; 0 when one of them is only partly visible, since
     relations about a cut-off object cannot be decided safely (memoised per view)."""
     key = ("head", category, color)
-    if key not in view.cache and named_like_a_prop(view, category):
-        view.cache[key] = 0
     if key not in view.cache:
-        ids = [o.object_id for o in view.objects if o.status != "hidden"
-               and answers_to(view, o, category) and color in (None, o.color)]
+        # A name a background piece shares resolves nothing (``resolves``): no search under it.
+        ids = [] if named_like_a_prop(view, category) else [
+            o.object_id for o in view.objects if o.status != "hidden"
+            and answers_to(view, o, category) and color in (None, o.color)]
         view.cache[key] = 0 if any(view.objects[i].status != "visible" for i in ids) else sum(1 << i for i in ids)
     return view.cache[key]
 
