@@ -33,8 +33,6 @@ from refspatial.records import ShardWriter  # noqa: E402
 from refspatial.relations import computed_relations, view_facts  # noqa: E402
 from refspatial.relations import _free_space_entries as free_space_entries  # noqa: E402
 from refspatial.relations.facts import posed_shapes  # noqa: E402
-from refspatial.relations.masks import PIXELS_KEY, cached_boxes  # noqa: E402
-from refspatial.relations.stored import facts_from_record  # noqa: E402
 from refspatial.render import render_views  # noqa: E402
 from refspatial.seeding import scene_seed, stage_rng  # noqa: E402
 
@@ -76,10 +74,7 @@ def detail_pass(recipe, rendered: list) -> tuple[dict[str, float], int]:
         for scene, views in rendered:
             shapes = clock.time("relations: posed shapes", posed_shapes, scene)
             seen = clock.time("relations: view facts", lambda: [view_facts(scene, v, shapes) for v in views])
-            facts = clock.time("relations: record round trip", lambda: [
-                facts_from_record(pipeline.scene_dict(scene, i, v, f), v.seg, v.depth_m, v.K, v.T_world_cam,
-                                  boxes=cached_boxes(f), pixels=f.cache[PIXELS_KEY])
-                for i, (v, f) in enumerate(zip(views, seen))])
+            _, facts = clock.time("relations: record round trip", pipeline.stored_facts, scene, views, seen)
             clock.time("relations: free-space entries", lambda: [free_space_entries(f, f.askable()) for f in facts])
             clock.time("relations: other predicates", lambda: [computed_relations(f) for f in facts])
             for i, f in enumerate(facts):

@@ -105,12 +105,7 @@ def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutc
         views = render_views(scene, catalogue.materials)
     with _timed(out.seconds, "relations", out.peak_bytes):
         shapes = posed_shapes(scene)  # the same in every view
-        seen = [view_facts(scene, v, shapes) for v in views]
-        described = [scene_dict(scene, i, v, f) for i, (v, f) in enumerate(zip(views, seen))]
-        # Questions see the facts as stored, so re-executing a program on the record gives the same answer.
-        facts = [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam, boxes=cached_boxes(f),
-                                   pixels=f.cache[PIXELS_KEY])
-                 for d, v, f in zip(described, views, seen)]
+        described, facts = stored_facts(scene, views, [view_facts(scene, v, shapes) for v in views])
         relations = [computed_relations(f) for f in facts]
     keys = [f"{scene.scene_id}/{v.camera.name}" for v in views]
     for i, view in enumerate(views):
@@ -123,6 +118,14 @@ def generate_scene(recipe: Recipe, catalogue: Catalogue, seed: int) -> SceneOutc
                                   seg=view.seg, K=view.K, T_world_cam=view.T_world_cam,
                                   relations=relations[i], qa=qa))
     return out
+
+
+def stored_facts(scene: Scene, views: list[View], seen: list[ViewFacts]) -> tuple[list[dict], list[ViewFacts]]:
+    """Each view's scene description, and its facts as read back from that description: questions
+    see the facts as stored, so re-executing a program on the record gives the same answer."""
+    described = [scene_dict(scene, i, v, f) for i, (v, f) in enumerate(zip(views, seen))]
+    return described, [facts_from_record(d, v.seg, v.depth_m, v.K, v.T_world_cam, boxes=cached_boxes(f),
+                                         pixels=f.cache[PIXELS_KEY]) for d, v, f in zip(described, views, seen)]
 
 
 def light_dict(light: Light) -> dict:
