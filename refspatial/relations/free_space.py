@@ -91,7 +91,12 @@ def solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool = T
     """
     key = ("free_space", tuple(constraints), with_mask)
     if key not in v.cache:
-        v.cache[key] = _solve(v, tuple(constraints), with_mask)
+        # The mask is made last, from an answer found without it: none without the mask is
+        # none with it (the relation stage has solved every single sector without masks).
+        if with_mask and v.cache.get(("free_space", key[1], False), True) is None:
+            v.cache[key] = None
+        else:
+            v.cache[key] = _solve(v, tuple(constraints), with_mask)
     return v.cache[key]
 
 
