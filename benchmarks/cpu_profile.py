@@ -33,6 +33,7 @@ from refspatial.records import ShardWriter  # noqa: E402
 from refspatial.relations import computed_relations, view_facts  # noqa: E402
 from refspatial.relations import _free_space_entries as free_space_entries  # noqa: E402
 from refspatial.relations.facts import posed_shapes  # noqa: E402
+from refspatial.relations.geometry import forget_shared  # noqa: E402
 from refspatial.render import render_views  # noqa: E402
 from refspatial.seeding import scene_seed, stage_rng  # noqa: E402
 
@@ -54,6 +55,7 @@ class Clock:
 def stages_pass(recipe, catalogue, seeds: list[int], out: Path) -> tuple[dict[str, float], int]:
     """The pipeline's stages (its own timers, reading CPU time) and the shard write, one pass."""
     clock, records = Clock(), 0
+    forget_shared()
     with ShardWriter(out, {"profile": {"recipe": recipe.name}}) as writer:
         for seed in seeds:
             outcome = pipeline.generate_scene(recipe, catalogue, seed)
@@ -67,6 +69,7 @@ def stages_pass(recipe, catalogue, seeds: list[int], out: Path) -> tuple[dict[st
 def detail_pass(recipe, rendered: list) -> tuple[dict[str, float], int]:
     """Relations split into its parts, and questions by family, over scenes rendered beforehand."""
     clock, records = Clock(), 0
+    forget_shared()
     draws = dict(question_draws.FAMILIES)
     for name, draw in draws.items():  # each family's draws timed where the driver calls them
         question_draws.FAMILIES[name] = (lambda n, d: lambda *a: clock.time(f"questions: {n}", d, *a))(name, draw)

@@ -36,7 +36,7 @@ from ..scene import LEG_HALF_M, LEG_INSET_M
 from .directional import corridor, squarely_between
 from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
-from .geometry import grown_box, half_planes, inside_convex, inside_convex_grid, inside_half_planes, project
+from .geometry import grown_box, half_planes, inside_convex, inside_convex_grid, inside_half_planes, project, shared
 from .masks import box_of, cached_boxes, padded
 from .registry import predicate
 
@@ -394,12 +394,28 @@ class _Raster:
 
     def __init__(self, v: ViewFacts, support: int, polygon: np.ndarray, z: float) -> None:
         self.first = np.floor(polygon.min(0) / CELL_M).astype(int)
+        # Which cells are free, and which roomy, is world geometry: a scene's views share it.
+        self._obstacles = _obstacles(v, support, z)
+        self._world = (polygon.tobytes(), z, *((o.footprint_world.tobytes(), o.ground_outline.tobytes())
+                                              for o in self._obstacles))
+        self.free = shared(("free_raster", self._world), lambda: self._free(polygon))
+        self._flags: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def _free(self, polygon: np.ndarray) -> np.ndarray:
         last = np.floor(polygon.max(0) / CELL_M).astype(int)
         shape = (last - self.first + 1)[::-1]  # rows follow y, columns x
-        self.free = inside_convex_grid(*_cell_axes(self.first, shape[::-1]), polygon, grow=-EDGE_MARGIN_M)
-        for o in _obstacles(v, support, z):
-            self._clear_of(self.free, o.footprint_world, CLEARANCE_M)
-        self._flags: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        free = inside_convex_grid(*_cell_axes(self.first, shape[::-1]), polygon, grow=-EDGE_MARGIN_M)
+        for o in self._obstacles:
+            self._clear_of(free, o.footprint_world, CLEARANCE_M)
+        free.flags.writeable = False
+        return free
+
+    def _roomy(self) -> np.ndarray:
+        roomy = self.free.copy()
+        for o in self._obstacles:
+            self._clear_of(roomy, o.ground_outline, ANSWER_ROOM_M)
+        roomy.flags.writeable = False
+        return roomy
 
     def flags(self, v: ViewFacts, support: int, z: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Bool rasters (seen, cleared, roomy) over the free cells, built on first use: a cell's
@@ -411,13 +427,10 @@ class _Raster:
             rows, cols = np.nonzero(self.free)
             centres = (np.column_stack([cols + self.first[0], rows + self.first[1]]) + 0.5) * CELL_M
             uv, depth = project(np.column_stack([centres, np.full(len(centres), z)]), v.K, v.T_world_cam)
-            seen, cleared, roomy = (np.zeros_like(self.free) for _ in range(3))
+            seen, cleared = (np.zeros_like(self.free) for _ in range(2))
             seen[rows, cols] = _unoccluded(v, uv, depth)
             cleared[rows, cols] = _cleared(image_clearance(v, support), uv)
-            roomy[rows, cols] = True
-            for o in _obstacles(v, support, z):
-                self._clear_of(roomy, o.ground_outline, ANSWER_ROOM_M)
-            self._flags = seen, cleared, roomy
+            self._flags = seen, cleared, shared(("roomy_raster", self._world), self._roomy)
         return self._flags
 
     def _clear_of(self, cells: np.ndarray, outline: np.ndarray, grow: float) -> None:

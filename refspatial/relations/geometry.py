@@ -148,11 +148,11 @@ def _separated(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.any((pa.max(0) < pb.min(0)) | (pb.max(0) < pa.min(0))))
 
 
-_SHARED: dict = {}  # results of the pure functions below, by their inputs' bytes
+_SHARED: dict = {}  # results of pure functions of world geometry (here and in free_space), by their inputs' bytes
 _SHARED_MAX = 4096
 
 
-def _shared(key, compute):
+def shared(key, compute):
     """A pure function's result for inputs seen before: a scene's views ask the same world
     geometry (the outlines are the scene's, not the view's), each view afresh."""
     try:
@@ -165,6 +165,12 @@ def _shared(key, compute):
     return value
 
 
+def forget_shared() -> None:
+    """Drop every shared result: a benchmark's second pass over the same scenes would otherwise
+    find what a long run, meeting each scene once, never does."""
+    _SHARED.clear()
+
+
 def _key(name: str, poly: np.ndarray) -> tuple:
     return name, poly.shape, poly.dtype.str, poly.tobytes()
 
@@ -172,7 +178,7 @@ def _key(name: str, poly: np.ndarray) -> tuple:
 def widths(poly: np.ndarray) -> tuple[float, float]:
     """A convex polygon's least width (its narrowest shadow over its own edge normals) and its
     longest span (the largest distance between two corners)."""
-    return _shared(_key("widths", poly), lambda: _widths(poly))
+    return shared(_key("widths", poly), lambda: _widths(poly))
 
 
 def _widths(poly: np.ndarray) -> tuple[float, float]:
@@ -188,7 +194,7 @@ def gap_between(a: np.ndarray, b: np.ndarray) -> float:
     """Smallest distance between two convex polygons (0 when they overlap or touch)."""
     # The same number either way round (each test and the minimum below are symmetric).
     ka, kb = _key("gap", a), _key("gap", b)
-    return _shared((ka, kb) if ka <= kb else (kb, ka), lambda: _gap_between(a, b))
+    return shared((ka, kb) if ka <= kb else (kb, ka), lambda: _gap_between(a, b))
 
 
 def _gap_between(a: np.ndarray, b: np.ndarray) -> float:
