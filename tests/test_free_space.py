@@ -307,7 +307,7 @@ def test_cell_flags_match_the_tests_they_cache(views):
     for v in views:
         support, polygon, z = fs._platform(v, (), [v.objects[0]])
         raster = fs._raster(v, support, polygon, z)
-        seen, cleared, roomy = raster.flags(v, support, z)
+        seen, cleared, roomy = raster.flags(v, support, z, raster.first, raster.first + raster.free.shape[::-1] - 1)
         every = np.indices(raster.free.shape).reshape(2, -1)  # and the raster itself, cell by cell
         cells = (np.column_stack([every[1] + raster.first[0], every[0] + raster.first[1]]) + 0.5) * fs.CELL_M
         exact = fs._free_exact(v, cells, support, polygon, z).reshape(raster.free.shape)
@@ -332,3 +332,26 @@ def test_cell_flags_match_the_tests_they_cache(views):
         assert np.array_equal(roomy[rows, cols], room)
         checked += len(centres)
     assert checked > 1000
+
+
+def test_cell_flags_worked_out_window_by_window_match_the_whole(views):
+    # Flags are worked out for the cells a solve looks at, when it first does: windows asked in
+    # any order, overlapping or not, leave the same flags as the whole platform asked at once.
+    from refspatial.relations import free_space as fs
+    rng = np.random.default_rng(3)
+    for v in views:
+        support, polygon, z = fs._platform(v, (), [v.objects[0]])
+        whole = fs._Raster(v, support, polygon, z)
+        last = whole.first + whole.free.shape[::-1] - 1
+        expected = [f.copy() for f in whole.flags(v, support, z, whole.first, last)]
+        part = fs._Raster(v, support, polygon, z)
+        for _ in range(12):
+            a = rng.integers(whole.first - 5, last + 5)
+            b = a + rng.integers(0, 40, size=2)
+            got = part.flags(v, support, z, a, b)
+            window = tuple(slice(max(lo, 0), max(hi + 1, 0)) for lo, hi in zip((a - whole.first)[::-1], (b - whole.first)[::-1]))
+            for f, e in zip(got[:2], expected[:2]):
+                assert np.array_equal(f[window], e[window])
+        got = part.flags(v, support, z, whole.first - 3, last + 3)  # the rest, and past the edges
+        for f, e in zip(got, expected):
+            assert np.array_equal(f, e)
