@@ -388,6 +388,22 @@ def test_a_turned_book_s_width_is_not_asked():
     assert QUANTITIES["width"](view(turned), turned) is None
 
 
+def test_depth_is_asked_only_of_a_surface_at_about_one_depth():
+    """A cabinet seen from 2.10 to 2.75 m deep has no one depth to the centimetre: its pixels'
+    median was 27 cm past its front and 17 cm short of its centre (annotator, read 38). A mug's
+    face a few centimetres deep has one."""
+    from refspatial.questions.program import QUANTITIES
+
+    thing = dataclasses.replace(_facts({"id": 0, "category": "cabinet", "at": [0.0, 0.2, 0.0],
+                                        "size": [0.4, 0.4, 0.7]}), depth_m=2.37)
+    v = view(thing)
+    rows, cols = np.nonzero(v.seg == 0)
+    v.depth_m[rows, cols] = 2.37 + 0.02 * np.sign(rows - rows.mean())  # a face 4 cm deep
+    assert QUANTITIES["depth"](v, thing).value == pytest.approx(2.37)
+    v.depth_m[rows, cols] = np.linspace(2.10, 2.75, len(rows))  # front to back
+    assert QUANTITIES["depth"](v, thing) is None
+
+
 def test_the_distance_between_says_edge_to_edge():
     """Plain "the distance between the keyboard and the stool" reads centre to centre to many (1.6 m
     where the edges are 1.17 m apart: annotator); the gap is asked in words that say so."""

@@ -264,9 +264,25 @@ def _width(v: ViewFacts, o) -> Quantity | None:
     return Quantity(span, "m")
 
 
+# "How deep into the scene is the cabinet" has one answer only where the thing's visible surface
+# lies at about one depth: a cabinet seen from 2.10 to 2.75 m read 2.37 m (its pixels' median),
+# 27 cm past its front and 17 cm short of its centre (annotator, read 38). Asked where the middle
+# 80 % of its visible depths span at most this share of the answer.
+DEPTH_SPREAD_SHARE = 0.10
+
+
+def _depth(v: ViewFacts, o) -> Quantity | None:
+    """Depth along the viewing direction (the optical axis) of the visible surface, the median
+    over its mask, when that surface lies at about one depth (DEPTH_SPREAD_SHARE)."""
+    box = box_of(cached_boxes(v), o.object_id)
+    if box is None or not np.isfinite(o.depth_m):
+        return None
+    near, far = np.percentile(v.depth_m[box][v.seg[box] == o.object_id], [10, 90])
+    return Quantity(o.depth_m, "m") if far - near <= DEPTH_SPREAD_SHARE * o.depth_m else None
+
+
 QUANTITIES: dict[str, Callable[..., Quantity | None]] = {
-    # Depth along the viewing direction (the optical axis) of the visible surface, median over its mask.
-    "depth": lambda v, o: Quantity(o.depth_m, "m") if np.isfinite(o.depth_m) else None,
+    "depth": _depth,
     "camera_distance": _camera_distance,
     "centre_distance": lambda v, a, b: centre_distance(v, a, b),
     "height": lambda v, o: Quantity(o.height_m, "m"),
