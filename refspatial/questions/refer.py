@@ -355,10 +355,14 @@ def _fitting_combinations(target: int, head: int, shapes, rng,
     asked for by kind only when a shape needs them: chained kinds cost a search per object."""
     found: list[tuple[_Part, ...]] = []
     for shape in shapes:
-        lists = [parts_of(kind) for kind in shape]
-        size = math.prod(len(x) for x in lists)
-        if size == 0:
+        lists = []
+        for kind in shape:  # a kind with no parts ends the shape: the kinds after it go unsearched
+            lists.append(parts_of(kind))
+            if not lists[-1]:
+                break
+        if not lists[-1] or len(lists) < len(shape):
             continue
+        size = math.prod(len(x) for x in lists)
         if size > COMBOS_CHECKED:  # keep a random share of each list so that the product fits
             keep = (COMBOS_CHECKED / size) ** (1 / len(lists))
             lists = [[x[int(i)] for i in rng.permutation(len(x))[:max(1, int(len(x) * keep))]] for x in lists]
