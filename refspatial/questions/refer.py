@@ -360,7 +360,7 @@ def _fitting_combinations(target: int, head: int, shapes, rng,
             lists.append(parts_of(kind))
             if not lists[-1]:
                 break
-        if not lists[-1] or len(lists) < len(shape):
+        if not lists[-1]:
             continue
         size = math.prod(len(x) for x in lists)
         if size > COMBOS_CHECKED:  # keep a random share of each list so that the product fits

@@ -400,6 +400,7 @@ class _Raster:
                                               for o in self._obstacles))
         self.free = shared(("free_raster", self._world), lambda: self._free(polygon))
         self._flags: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._known: np.ndarray | None = None  # cells whose seen and cleared flags are worked out
 
     def _free(self, polygon: np.ndarray) -> np.ndarray:
         last = np.floor(polygon.max(0) / CELL_M).astype(int)
