@@ -43,7 +43,7 @@ shards: venv
 	$(BIN)/refspatial stats data/tabletop
 
 bench: venv
-	$(BIN)/python benchmarks/bench.py --scenes 12 --workers $(WORKERS) --library-assets 2000  # 1 process, then all cores, then a 2,000-asset library
+	$(BIN)/python benchmarks/bench.py --scenes 12 --workers $(WORKERS) --families 4 --library-assets 2000  # 1 process, then all cores, the other recipes, a 2,000-asset library
 
 # The contact sheet of every asset category (docs/assets.png).
 assets-sheet: venv

@@ -1,6 +1,6 @@
 """End-to-end throughput against bare MuJoCo rendering of the same views.
 
-    python benchmarks/bench.py [--scenes 20] [--recipe tabletop] [--workers K] [--scaling-scenes N]
+    python benchmarks/bench.py [--scenes 20] [--recipe tabletop] [--workers K] [--scaling-scenes N] [--families N]
 
 1. End to end: the real shard code (compose, settle, frame, render, relations,
    questions, MCAP write) in this process, pinned to one core, into a temporary folder.
@@ -9,7 +9,8 @@
    segmentation of every view) at the same resolution and quality settings, on the
    same core.
 3. Optionally N scenes with K worker processes on all cores (scaling).
-4. Optionally (--library-assets N) the same scenes drawing half their objects from a synthetic
+4. Optionally (--families N) every other recipe end to end on one core, N scenes each.
+5. Optionally (--library-assets N) the same scenes drawing half their objects from a synthetic
    asset library of N textured meshes (benchmarks/library_bench.py), against none.
 The ratio of (1) to (2) says how close the pipeline runs to the renderer's limit.
 
@@ -39,7 +40,7 @@ import refspatial  # noqa: E402,F401
 from refspatial.assets import load_catalogue  # noqa: E402
 from refspatial.compose import SceneRejected  # noqa: E402
 from refspatial.pipeline import STAGES, build_scene, generate_scene, warm_banks  # noqa: E402
-from refspatial.recipe import load_recipe  # noqa: E402
+from refspatial.recipe import available, load_recipe  # noqa: E402
 from refspatial.render import PHASES, gl_info, render_views  # noqa: E402
 from refspatial.seeding import scene_seed  # noqa: E402
 from refspatial.shards import ShardJob, generate, run_shard  # noqa: E402
@@ -85,6 +86,25 @@ def bare_render(scenes: list, catalogue, timings: dict[str, float] | None = None
     return time.perf_counter() - start, views
 
 
+def other_families(main_recipe, catalogue, n: int) -> None:
+    """Every other recipe's stages, end to end on one core: a family's own costs can go wrong
+    unseen by the main recipe's table (rooms' relations ran ten times too slow for two sessions)."""
+    print(f"\nthe other recipes, end to end on one core, {n} scenes each (banks warmed first), ms a record:")
+    for name in available():
+        if name == main_recipe.name:
+            continue
+        recipe = load_recipe(name)
+        warm_banks(recipe, catalogue)
+        with tempfile.TemporaryDirectory() as tmp:
+            e2e_s, summary = end_to_end(recipe, catalogue, n, Path(tmp))
+        records = max(summary["records"], 1)
+        stages = dict(summary["seconds"], **{"write+other": e2e_s - sum(summary["seconds"].values())})
+        cpu_side = sum(s for stage, s in stages.items() if stage != "render")
+        print(f"  {name:<16} {summary['records'] / e2e_s:5.2f} records/s  " + "  ".join(
+            f"{stage} {1000 * stages.get(stage, 0.0) / records:.1f}" for stage in (*STAGES, "write+other"))
+            + f"  | CPU-side {1000 * cpu_side / records:.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scenes", type=int, default=20)
@@ -95,6 +115,8 @@ def main() -> None:
     parser.add_argument("--library-assets", type=int, default=0,
                         help="also time generation drawing half its objects from a synthetic library of this many assets")
     parser.add_argument("--library-scenes", type=int, default=0, help="scenes for that (default: --scenes)")
+    parser.add_argument("--families", type=int, default=0,
+                        help="also time this many scenes of every other recipe, end to end on one core")
     args = parser.parse_args()
     all_cores = os.sched_getaffinity(0)
     os.sched_setaffinity(0, {min(all_cores)})
@@ -153,6 +175,9 @@ def main() -> None:
         print(f"\n{args.workers} worker processes on {len(all_cores)} cores, {n} scenes (start-up included): "
               f"{wall:.2f} s, {m['records'] / wall:.2f} records/s, {m['qa'] / wall:.1f} QA/s "
               f"(speed-up {(m['records'] / wall) / (records / e2e_s):.2f}x over one core)")
+    if args.families > 0:
+        os.sched_setaffinity(0, {min(all_cores)})
+        other_families(recipe, catalogue, args.families)
     if args.library_assets > 0:
         from library_bench import run as library_run
 
