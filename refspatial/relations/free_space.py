@@ -387,9 +387,10 @@ class _Raster:
     """Which 1 cm lattice cells of a platform are free: on it, EDGE_MARGIN_M inside its edge, and
     CLEARANCE_M clear of every obstacle footprint (tested at the cell centres).
 
-    Built once per view and platform: the relation stage and the questions solve hundreds of
-    regions on the same few platforms, and testing every obstacle per region cost more than
-    everything else in those stages together.
+    Made once per view and platform (the free cells once per scene: they are world geometry):
+    the relation stage and the questions solve hundreds of regions on the same few platforms,
+    and testing every obstacle per region cost more than everything else in those stages
+    together. The per-view flags of ``flags`` are worked out cell by cell as solves need them.
     """
 
     def __init__(self, v: ViewFacts, support: int, polygon: np.ndarray, z: float) -> None:
