@@ -175,11 +175,10 @@ def _on(mask: np.ndarray, point) -> bool:
 def _check_answer(qa: dict, values: list, views: dict[str, ViewFacts]) -> list[str]:
     view, last = views["self"], values[-1]
     if qa["kind"] == "point" and qa["family"] == "placement":
-        from .relations.free_space import solve
-        from .questions.placement import as_constraints  # noqa: I001
+        from .relations.free_space import solve, stored_constraints
 
         node = qa["steps"][-1]
-        answer = solve(view, as_constraints(node["constraints"], values, node["inputs"]))
+        answer = solve(view, stored_constraints(node["constraints"], [values[i] for i in node["inputs"]]))
         mask = rle_decode(qa["free_mask"])
         out = [] if answer is not None and np.array_equal(answer.mask, mask) else ["free-region mask differs"]
         return out + [f"point {p} is not on the free region" for p in qa["answer_points"] if not _on(mask, p)]

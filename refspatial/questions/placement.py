@@ -8,7 +8,7 @@ import numpy as np
 
 from ..annotate import rle_encode
 from ..relations import TABLE, ViewFacts
-from ..relations.free_space import DIRECTIONS, image_clearance, solve
+from ..relations.free_space import DIRECTIONS, image_clearance, solve, stored_constraints
 from .common import QA, erosion_px, format_points, make_qa, sample_mask_points
 from .phrases import Phrasebook
 from .program import Node, ProgramError, execute
@@ -50,8 +50,7 @@ def placement(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.rando
     # The free spot depends on the anchors alone, not on how they are described: most drawn
     # spots have no room (four in five), and solving first spares their anchors' description
     # search (chained anchors cost a search each).
-    wanted = as_constraints(constraints, [o.object_id for o in chosen], range(len(chosen)))
-    if solve(view, wanted, with_mask=False) is None:
+    if solve(view, stored_constraints(constraints, [o.object_id for o in chosen]), with_mask=False) is None:
         return None
     others = sum(1 << o.object_id for o in chosen)
     refs = [_anchor_ref(view, o, k, others, rng) for o, k in zip(chosen, anchor_steps)]
@@ -103,7 +102,7 @@ def _question(views, spec: dict, refs, constraints: list[dict], rng) -> QA | Non
         values = execute(program, view)
     except ProgramError:
         return None
-    answer = solve(view, as_constraints(constraints, values, anchors))
+    answer = solve(view, stored_constraints(constraints, [values[i] for i in anchors]))
     extra = []
     if spec["answer_points"] > 1:
         # Further points keep clear of every object in the picture too, as the first one does.
@@ -121,14 +120,6 @@ def _question(views, spec: dict, refs, constraints: list[dict], rng) -> QA | Non
         qa["reasoning_steps"].append({"kind": "Position", "text": qa["ref"], "object_id": None, "point": points[0]})
         qa["reasoning"] = _retrace(qa)
     return qa
-
-
-def as_constraints(constraints: list[dict], values, anchors: list[int]):
-    from ..relations.free_space import Constraint
-
-    ids = [values[i] for i in anchors]
-    return tuple(Constraint(c["kind"], tuple(ids[k] for k in c["anchors"]), c.get("direction"), c.get("offset_m"))
-                 for c in constraints)
 
 
 def _region_words(book: Phrasebook, c: dict, words: list[str], rng) -> str:

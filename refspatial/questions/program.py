@@ -21,7 +21,7 @@ from ..relations import PREDICATES, Quantity, ViewFacts
 from ..relations.directional import DEPTH_MARGIN_M, SHELF_INWARD
 from ..relations.masks import box_of, cached_boxes
 from ..relations.metric import centre_distance
-from ..relations.free_space import Constraint, solve
+from ..relations.free_space import solve, stored_constraints
 
 Node = dict[str, Any]
 Value = Any  # list[int] (object ids), int (one object), bool, str, float or [x, y]
@@ -304,11 +304,7 @@ def _measure(view: ViewFacts, node: Node, *objects: int) -> float:
 @op("free_space")
 def _free_space(view: ViewFacts, node: Node, *anchors: int) -> list[float]:
     """A free point meeting the node's constraints; each constraint names its anchors by input position."""
-    constraints = tuple(
-        Constraint(c["kind"], tuple(anchors[k] for k in c["anchors"]), c.get("direction"), c.get("offset_m"))
-        for c in node["constraints"]
-    )
-    answer = solve(view, constraints)
+    answer = solve(view, stored_constraints(node["constraints"], anchors))
     if answer is None:
         raise ProgramError("no free space meets the constraints")
     return list(answer.point)

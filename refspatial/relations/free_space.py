@@ -75,6 +75,13 @@ class FreeSpace:
     support: int  # TABLE or the platform object's id
 
 
+def stored_constraints(stored: list[dict], anchor_ids) -> tuple[Constraint, ...]:
+    """The constraints of a program's free_space node, whose anchors are positions among its
+    inputs, with ``anchor_ids`` the object id at each position."""
+    return tuple(Constraint(c["kind"], tuple(anchor_ids[k] for k in c["anchors"]), c.get("direction"),
+                            c.get("offset_m")) for c in stored)
+
+
 def direction_axis(v: ViewFacts, direction: str) -> np.ndarray:
     """Ground-plane unit vector of a viewer-frame direction."""
     axes = {"left": -v.right_axis, "right": v.right_axis, "front": -v.forward_axis, "behind": v.forward_axis}
