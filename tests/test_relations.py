@@ -348,27 +348,27 @@ def test_closer_to_the_camera_is_antisymmetric_for_intervals_sharing_an_end():
 def test_an_object_seen_only_as_slivers_is_not_asked_about():
     """A box behind a chair showed 46 % of itself as two slivers between the chair's legs (356 px),
     and nothing there read as a box (annotator, read 36); the same share in one larger piece does."""
-    from refspatial.relations.facts import in_one_piece
+    from refspatial.relations.facts import recognisable_piece
 
     slivers = np.zeros((40, 60), dtype=bool)
     slivers[5:35, 10:16] = slivers[5:35, 40:46] = True  # two pieces of 180 px
     whole = np.zeros((40, 60), dtype=bool)
     whole[5:37, 10:40] = True  # 960 px in one piece
-    assert not in_one_piece(slivers, 0.46, 311)
-    assert in_one_piece(whole, 0.46, 311)
+    assert not recognisable_piece(slivers, 0.46, 311)
+    assert recognisable_piece(whole, 0.46, 311)
     split_by_a_pen = np.zeros((40, 60), dtype=bool)
     split_by_a_pen[5:35, 10:22] = True
     split_by_a_pen[:, 15] = False  # a thin occluder leaves two big pieces: 150 and 180 px of 0.8
-    assert in_one_piece(split_by_a_pen, 0.8, 100)
+    assert recognisable_piece(split_by_a_pen, 0.8, 100)
 
 
 def test_a_mostly_hidden_object_needs_a_larger_piece():
     """A white laptop showing 43 % of itself as one 779 px wedge between two cabinets did not read
     as a laptop (annotator, read 39); the same piece of a thing mostly in view does."""
-    from refspatial.relations.facts import in_one_piece
+    from refspatial.relations.facts import recognisable_piece
 
     wedge = np.zeros((60, 60), dtype=bool)
     wedge[np.tril_indices(39, -1)] = True  # one triangular piece of 741 px
     assert 700 < wedge.sum() < 933
-    assert not in_one_piece(wedge, 0.43, 311)
-    assert in_one_piece(wedge, 0.7, 311)
+    assert not recognisable_piece(wedge, 0.43, 311)
+    assert recognisable_piece(wedge, 0.7, 311)

@@ -308,7 +308,7 @@ def _object_facts(obj: PlacedObject, shape: PosedShape, view: View, right, forwa
     seen_whole = px >= min_px and share >= MIN_VISIBLE_SHARE and box is not None and \
         min(box[0].stop - box[0].start, box[1].stop - box[1].start) >= MIN_VISIBLE_SPAN_SHARE * view.seg.shape[0]
     if seen_whole and share < WHOLE_SHARE:
-        seen_whole = in_one_piece(view.seg[box] == obj.object_id, share, min_px)
+        seen_whole = recognisable_piece(view.seg[box] == obj.object_id, share, min_px)
     status = "visible" if seen_whole else ("marginal" if px else "hidden")
     return ObjectFacts(
         obj.object_id, asset.category, asset.name, asset.color, shape.aabb, float(centre @ right),
@@ -320,7 +320,7 @@ def _object_facts(obj: PlacedObject, shape: PosedShape, view: View, right, forwa
     )
 
 
-def in_one_piece(mask: np.ndarray, share: float, min_px: float) -> bool:
+def recognisable_piece(mask: np.ndarray, share: float, min_px: float) -> bool:
     """Whether the largest 8-connected piece of an object's visible mask (``share`` of its
     silhouette in all) is asked-about size by itself (MOSTLY_HIDDEN_PIECE times that when less
     than MOSTLY_HIDDEN_SHARE shows) and holds MIN_PIECE_SHARE of the silhouette."""
