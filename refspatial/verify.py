@@ -128,7 +128,7 @@ def check_qa(qa: dict, views: dict[str, ViewFacts]) -> list[str]:
         return [f"program no longer executes: {exc}"]
     problems = [f"node {k} ({n['op']}): stored {n['result']!r}, recomputed {v!r}"
                 for k, (n, v) in enumerate(zip(qa["steps"], values)) if not _same(n["result"], v)]
-    if any(n["op"] == "relate" for n in program) and is_degenerate(program, views):
+    if any(n["op"] == "relate" for n in program) and is_degenerate(program, views, values):
         problems.append("a relation step is degenerate")
     if count_steps(program) != qa["num_steps"]:
         problems.append(f"num_steps {qa['num_steps']} but the program counts {count_steps(program)}")

@@ -72,6 +72,36 @@ def test_degenerate_relation_is_detected():
     ref = Ref(2, "mug", "mug", "blue", relations=(Relation("right_of", (Ref(4, "plate", "plate"),)),))
     program, values = run(ref)
     assert values[-1] == 2 and is_degenerate(program, MUGS) and not resolves(ref, MUGS)
+    # Given the program's values, the test reuses them and reaches the same verdict.
+    assert is_degenerate(program, MUGS, values)
+    fine = Ref(2, "mug", "mug", relations=(Relation("right_of", (Ref(3, "bowl", "bowl"),)),))
+    program, values = run(fine)
+    assert values[-1] == 2 and not is_degenerate(program, MUGS, values) and not is_degenerate(program, MUGS)
+
+
+def test_small_part_searches_by_loops_match_the_array_search(monkeypatch):
+    """Combination searches up to LOOPED_COMBOS run as plain loops; on random part sets (up to 70
+    objects, past 64-bit masks) they must agree with the array version, combination for combination."""
+    from refspatial.questions import refer
+
+    rng = np.random.default_rng(7)
+    for _ in range(1500):
+        n_objects = int(rng.integers(2, 70))
+        ids = sorted(int(i) for i in rng.choice(n_objects, size=int(rng.integers(1, min(n_objects, 8) + 1)),
+                                                 replace=False))
+        head, target = sum(1 << i for i in ids), 1 << ids[0]
+
+        def part():
+            kept = sum(1 << i for i in ids if rng.random() < 0.6) | target
+            undecided = sum(1 << i for i in ids if rng.random() < 0.1) & ~kept
+            return refer._Part((), 1 << int(rng.integers(n_objects)), 1 << int(rng.integers(6)), kept, undecided)
+
+        lists = [[part() for _ in range(int(rng.integers(0, 5)))] for _ in range(int(rng.integers(1, 4)))]
+        monkeypatch.setattr(refer, "LOOPED_COMBOS", -1)
+        arrays = refer._fits(target, head, lists)
+        monkeypatch.setattr(refer, "LOOPED_COMBOS", 10**9)
+        loops = refer._fits(target, head, lists)
+        assert loops.shape == arrays.shape and np.array_equal(loops, arrays)
 
 
 def test_marginal_lookalike_blocks_descriptions():

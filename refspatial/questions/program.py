@@ -345,16 +345,20 @@ def _camera_move(view: ViewFacts, node: Node) -> str:
     return "right" if value > 0 else "left"
 
 
-def execute(program: list[Node], views: ViewFacts | Views, skip: int | None = None) -> list[Value]:
+def execute(program: list[Node], views: ViewFacts | Views, skip: int | None = None,
+            known: list[Value] | None = None) -> list[Value]:
     """Values of every node, in order. Raises ProgramError on ambiguity.
 
     ``views`` is one view, or a mapping of view names ("self", "other") for
     multi-view programs. ``skip`` names a node to bypass (its value becomes its
     first input's), which is how the degeneracy test removes one relation at a time.
+    ``known``: values of the program's first nodes from an earlier run on the same views
+    (a node's value depends on the nodes before it alone), which are not worked out again.
     """
     named = {"self": views} if isinstance(views, ViewFacts) else dict(views)
-    values: list[Value] = []
-    for k, node in enumerate(program):
+    values: list[Value] = list(known or ())
+    for k in range(len(values), len(program)):
+        node = program[k]
         inputs = [values[i] for i in node.get("inputs", [])]
         if k == skip:
             values.append(inputs[0])
@@ -389,14 +393,17 @@ def count_steps(program: list[Node]) -> int:
     return max(1, len(anchors) + len(phrases))
 
 
-def is_degenerate(program: list[Node], views: ViewFacts | Views) -> bool:
-    """True if some relation node can be skipped without changing the answer (CLEVR's test)."""
-    target = answer(program, views)
+def is_degenerate(program: list[Node], views: ViewFacts | Views, values: list[Value] | None = None) -> bool:
+    """True if some relation node can be skipped without changing the answer (CLEVR's test).
+    ``values``: the program's values on these views, when the caller has executed it already."""
+    if values is None:
+        values = execute(program, views)
+    target = values[-1]
     for k, node in enumerate(program):
         if node["op"] != "relate":
             continue
-        try:
-            if execute(program, views, skip=k)[-1] == target:
+        try:  # the nodes before the skipped one keep their values
+            if execute(program, views, skip=k, known=values[:k])[-1] == target:
                 return True
         except ProgramError:
             continue

@@ -10,6 +10,7 @@ picks the intended object and none of its relations is degenerate.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -27,6 +28,9 @@ from .sides import SIDE_PREDICATES, side_visible
 MAX_RANK = 3
 COMBOS_CHECKED = 200_000  # part combinations checked at once per shape (array operations on bit masks)
 COMBOS_WANTED = 24  # enough fitting combinations to choose from with variety
+# Up to this many combinations, plain loops beat the array operations' set-up (~40 us a call):
+# most searches test one kind of part, a few dozen parts.
+LOOPED_COMBOS = 64
 
 
 def relation_predicates(phrased: set[str], arity: int) -> list[str]:
@@ -124,7 +128,8 @@ def resolves(ref: Ref, view: ViewFacts) -> bool:
     program: list[Node] = []
     compile_ref(ref, program)
     try:
-        return execute(program, view)[-1] == ref.object_id and not is_degenerate(program, view)
+        values = execute(program, view)
+        return values[-1] == ref.object_id and not is_degenerate(program, view, values)
     except ProgramError:
         return False
 
@@ -380,6 +385,9 @@ def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
     keeps only the target, and has no idle part (dropping any one leaves more than the target).
     Returns a boolean array with one axis per list. ``target`` is the target's bit."""
     n = len(lists)
+    if math.prod(len(x) for x in lists) <= LOOPED_COMBOS:
+        fits = [_fits_one(target, head, combo) for combo in itertools.product(*lists)]
+        return np.array(fits, dtype=bool).reshape([len(x) for x in lists])
     bits = head
     for x in lists:
         for p in x:
@@ -409,6 +417,26 @@ def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
         for j in range(i + 1, n):
             ok &= ((column(i, "objects") & column(j, "objects")) == 0) & ((column(i, "predicates") & column(j, "predicates")) == 0)
     return ok
+
+
+def _fits_one(target: int, head: int, combo: tuple[_Part, ...]) -> bool:
+    """``_fits`` for one combination, by the same tests in the same order."""
+    remaining = head
+    for p in combo:
+        if remaining & p.undecided:
+            return False
+        remaining &= p.kept
+    if remaining != target:
+        return False
+    for k in range(len(combo)):
+        others = head
+        for j, p in enumerate(combo):
+            if j != k:
+                others &= p.kept
+        if others == target:
+            return False
+    return not any(a.objects & b.objects or a.predicates & b.predicates
+                   for i, a in enumerate(combo) for b in combo[i + 1:])
 
 
 def _parts(view: ViewFacts, target: ObjectFacts, kind: str, phrased: set[str], rng) -> list[Relation]:
