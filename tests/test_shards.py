@@ -66,6 +66,35 @@ def test_a_scene_that_raises_is_skipped_with_its_reason(tiny, catalogue, tmp_pat
                                         "detail": "RuntimeError: renderer lost its context"}]
 
 
+def test_a_shard_runs_with_rarer_full_collections_and_restores_the_collector(tiny, catalogue, tmp_path,
+                                                                            monkeypatch):
+    import gc
+
+    import refspatial.pipeline as pipeline
+    from refspatial.shard_job import FULL_PASS_EVERY, ShardJob
+
+    seen = []
+
+    def record_threshold(recipe, cat, seed):
+        seen.append(gc.get_threshold())
+        raise RuntimeError("no scene needed")
+
+    monkeypatch.setattr(pipeline, "generate_scene", record_threshold)
+    before = gc.get_threshold()
+    (tmp_path / "shards").mkdir()
+    summary = run_shard(ShardJob(0, 0, 2, tmp_path, tiny, catalogue, base_seed=7))
+    assert len(summary["skipped"]) == 2
+    assert seen == [(before[0], before[1], FULL_PASS_EVERY)] * 2
+    assert gc.get_threshold() == before
+
+    def interrupt(tick):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):  # a shard cut short restores it too
+        run_shard(ShardJob(1, 0, 2, tmp_path, tiny, catalogue, base_seed=7), interrupt)
+    assert gc.get_threshold() == before
+
+
 class FullDisk(ShardWriter):
     """A writer whose disk is full when shard 1 writes its first record."""
 
