@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .vector import length
+
 TABLE = Path(__file__).with_name("colour_words.yaml")
 
 
@@ -56,7 +58,7 @@ def reads_as(lab, word: str, margin: float = 0.0) -> bool:
     if word not in prototypes:
         return False
     lab = np.asarray(lab, float)
-    distance = {w: float(np.linalg.norm(lab - p)) for w, p in prototypes.items()}
+    distance = {w: length(lab - p) for w, p in prototypes.items()}
     group = alike.get(word, word)
     own = min(d for w, d in distance.items() if alike.get(w, w) == group)
     others = [d for w, d in distance.items() if alike.get(w, w) != group]

@@ -13,6 +13,8 @@ from functools import cached_property
 
 import numpy as np
 
+from .vector import length
+
 
 @dataclass(frozen=True, eq=False)
 class MeshData:
@@ -224,7 +226,7 @@ class Scene:
 
 def quat_to_matrix(q: tuple[float, float, float, float] | np.ndarray) -> np.ndarray:
     """Rotation matrix of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    w, x, y, z = np.asarray(q, dtype=float) / length(q)
     return np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],

@@ -372,3 +372,18 @@ def test_a_mostly_hidden_object_needs_a_larger_piece():
     assert 700 < wedge.sum() < 933
     assert not recognisable_piece(wedge, 0.43, 311)
     assert recognisable_piece(wedge, 0.7, 311)
+
+
+def test_vector_length_is_numpys_norm_bit_for_bit():
+    """``vector.length`` stands in for ``np.linalg.norm`` in the relation engine; records depend on
+    every bit of it, so it must agree exactly, and hand anything but float64 vectors to numpy."""
+    from refspatial.vector import length
+
+    rng = np.random.default_rng(3)
+    for n in (2, 3, 4):
+        for v in rng.normal(size=(2000, n)) * 10.0 ** rng.integers(-6, 4, size=(2000, 1)):
+            assert length(v) == np.linalg.norm(v)
+    assert length((3.0, 4.0)) == 5.0 and length([0.0, 0.0, 0.0]) == 0.0
+    single = np.array([0.1, 0.2, 0.3], dtype=np.float32)
+    assert length(single) == float(np.linalg.norm(single))  # computed in float32, as numpy does
+    assert length(np.array([[1.0, 2.0], [3.0, 4.0]])) == np.linalg.norm(np.array([[1.0, 2.0], [3.0, 4.0]]))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..vector import length
 from .facing import front_reads_two_ways
 from .facts import ObjectFacts, ViewFacts
 from .masks import box_of, cached_boxes
@@ -172,7 +173,7 @@ def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     centre = nearer(float(ca[2]), float(cb[2]))
     # "Nearer to the camera" read as a straight line from the lens: two things 11 cm apart in
     # depth but 1 cm apart that way, one off to the side, are not nearer and farther (annotator).
-    straight = nearer(float(np.linalg.norm(ca)), float(np.linalg.norm(cb)))
+    straight = nearer(length(ca), length(cb))
     return surface if surface == centre == straight else None
 
 
@@ -213,7 +214,7 @@ def corridor(b: ObjectFacts, c: ObjectFacts) -> tuple[np.ndarray, float]:
     half-width: half the wider anchor's extent across that line (a banana lying along the line
     is narrow there, whatever its turned footprint box says). B and C must not share a centre."""
     seg = c.center_world_m[:2] - b.center_world_m[:2]
-    across = np.array([-seg[1], seg[0], 0.0]) / float(np.linalg.norm(seg))
+    across = np.array([-seg[1], seg[0], 0.0]) / length(seg)
     return across, 0.5 * max(b.extent_along(across), c.extent_along(across))
 
 
@@ -246,11 +247,11 @@ def _along_and_off(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> tuple[float, 
     """Where p lies along the segment q->r (0 at q, 1 at r), its distance from that line, and
     the segment's length (t and d are 0 for a degenerate segment)."""
     seg = np.asarray(r, float) - q
-    length = float(np.linalg.norm(seg))
-    if length < 1e-9:
-        return 0.0, 0.0, length
+    span = length(seg)
+    if span < 1e-9:
+        return 0.0, 0.0, span
     rel = np.asarray(p, float) - q
-    return float(rel @ seg) / length**2, abs(float(seg[0] * rel[1] - seg[1] * rel[0])) / length, length
+    return float(rel @ seg) / span**2, abs(float(seg[0] * rel[1] - seg[1] * rel[0])) / span, span
 
 
 def _between_in_image(a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> bool:

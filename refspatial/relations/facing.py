@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ..vector import length
 from .facts import ObjectFacts, ViewFacts
 from .placement import MIN_FRONT_TILT
 
@@ -23,9 +24,9 @@ def front_to_camera_deg(view: ViewFacts, o: ObjectFacts) -> float | None:
         return None
     front = np.asarray(o.front_world[:2], dtype=float)
     to_camera = np.asarray(view.T_world_cam[:2, 3], dtype=float) - o.center_world_m[:2]
-    if np.linalg.norm(front) < MIN_FRONT_TILT or np.linalg.norm(to_camera) < 1e-6:
+    if length(front) < MIN_FRONT_TILT or length(to_camera) < 1e-6:
         return None
-    cosine = front @ to_camera / (np.linalg.norm(front) * np.linalg.norm(to_camera))
+    cosine = front @ to_camera / (length(front) * length(to_camera))
     return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
 
 

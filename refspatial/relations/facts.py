@@ -20,6 +20,7 @@ from scipy.spatial import ConvexHull
 
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
+from ..vector import length
 from .geometry import covered_pixels, gap_between, overlap_share, project
 from .masks import BOXES_KEY, PIXELS_KEY, box_of, object_boxes, pixel_stats
 
@@ -103,7 +104,7 @@ class ObjectFacts:
         if self.footprint_world is None:
             return None
         c = self.footprint_world
-        return tuple(sorted((float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1])))))
+        return tuple(sorted((length(c[1] - c[0]), length(c[2] - c[1]))))
 
     @property
     def height_m(self) -> float:
@@ -117,7 +118,7 @@ class ObjectFacts:
         if self.footprint_world is None:
             return float(np.prod(self.footprint_m) * self.height_m)
         c = self.footprint_world
-        return float(np.linalg.norm(c[1] - c[0]) * np.linalg.norm(c[2] - c[1]) * self.height_m)
+        return float(length(c[1] - c[0]) * length(c[2] - c[1]) * self.height_m)
 
     def interval_along(self, axis_world: np.ndarray, centre: float) -> tuple[float, float]:
         """The object's extent along a horizontal axis as (low, high): its ground outline's shadow
@@ -406,7 +407,7 @@ def _lost_in_containers(objects: list[ObjectFacts]) -> list[ObjectFacts]:
 
 def _horizontal(v: np.ndarray) -> np.ndarray:
     h = np.array([v[0], v[1], 0.0])
-    n = np.linalg.norm(h)
+    n = length(h)
     if n < 1e-6:
         raise ValueError("camera looks straight down: the viewer frame is undefined; keep pitch_deg above -89")
     return h / n

@@ -5,6 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..vector import length
 from .facts import ObjectFacts, ViewFacts
 from .geometry import polygon_area, project, widths
 from .registry import Quantity, Verdict, compare, predicate
@@ -213,7 +214,7 @@ def _beside_raised_top(a: ObjectFacts, b: ObjectFacts) -> bool:
 def centre_distance(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity:
     """The distance between the two objects' box centres, in metres (asked only as "between the
     centres of")."""
-    return Quantity(float(np.linalg.norm(a.center_world_m - b.center_world_m)), "m")
+    return Quantity(length(a.center_world_m - b.center_world_m), "m")
 
 
 def _ray(v: ViewFacts, o: ObjectFacts) -> np.ndarray | None:
@@ -222,7 +223,7 @@ def _ray(v: ViewFacts, o: ObjectFacts) -> np.ndarray | None:
     centre = v.centre_in_camera(o)
     if centre is None or o.centroid_px is None or centre[2] <= 0:
         return None
-    return centre / np.linalg.norm(centre)
+    return centre / length(centre)
 
 
 @predicate("angle_between", family="angle", arity=2, frame="camera", inverse="angle_between",

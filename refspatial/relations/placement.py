@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..vector import length
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import project
 from .registry import Verdict, predicate
@@ -31,12 +32,12 @@ def _side_angle(a: ObjectFacts, b: ObjectFacts) -> float | None:
     if b.front_world is None or b.front_side == NO_FRONT:
         return None
     front = np.asarray(b.front_world[:2], dtype=float)
-    if np.linalg.norm(front) < MIN_FRONT_TILT:
+    if length(front) < MIN_FRONT_TILT:
         return None
     to_a = a.center_world_m[:2] - b.center_world_m[:2]
-    if np.linalg.norm(to_a) < 1e-6:
+    if length(to_a) < 1e-6:
         return None
-    cosine = front @ to_a / (np.linalg.norm(front) * np.linalg.norm(to_a))
+    cosine = front @ to_a / (length(front) * length(to_a))
     return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
 
 
