@@ -84,8 +84,14 @@ def _frame_one(name: str, corners: np.ndarray, aim: np.ndarray, spec: dict, rng:
             pos = aim + d * rot[:, 2]  # the camera's +z points back, away from what it sees
             return Camera(name, tuple(float(v) for v in pos), quat, fovy, spec["width"], spec["height"])
 
+        # The bisection below moves one camera along its line of sight: its intrinsics and
+        # rotation are made once, and each step only sets the position camera_at(d) would have.
+        placed = camera_at(d_hi)
+        K, T = placed.intrinsics(), placed.T_world_cam()
+
         def fits(d: float) -> bool:
-            uv, z = project(corners, camera_at(d))
+            T[:3, 3] = aim + d * rot[:, 2]
+            uv, z = project_points(corners, K, T)
             m = spec["margin_px"]
             return bool(np.all(z > 0.05) and np.all(uv >= m) and np.all(uv[:, 0] <= spec["width"] - m)
                         and np.all(uv[:, 1] <= spec["height"] - m))
