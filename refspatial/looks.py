@@ -156,9 +156,10 @@ def texture_layout(looks: Looks, category: str, visual: MeshData) -> MeshData:
 
 def texture_bank(looks: Looks, categories: dict, colors: dict[str, tuple[float, float, float]]) -> int:
     """Make every generated texture image that objects of ``categories`` (a catalogue's
-    CategorySpecs) and room surfaces can ask for, into the per-process image cache, and return
-    how many there are. A warm-up: scenes then find every image made (benchmarks call it to
-    measure a long run's steady state); records are the same with or without it."""
+    CategorySpecs) and room surfaces can ask for, into the per-process image cache (with each
+    room surface's mean colour), and return how many there are. A warm-up: scenes then find
+    every image made (benchmarks call it to measure a long run's steady state); records are the
+    same with or without it."""
     wanted = set()
     for name, spec in categories.items():
         if spec.mesh is not None:  # imported meshes bring their own images
@@ -166,12 +167,15 @@ def texture_bank(looks: Looks, categories: dict, colors: dict[str, tuple[float, 
         for material in spec.materials:
             for look in (looks.looks[k] for k in looks.choices(name, material)):
                 wanted.update((look, colors[c], seed) for c in spec.colors for seed in range(PATTERN_SEEDS))
+    surfaces = set()
     for names in looks.surfaces.values():
         for look in (looks.looks[k] for k in names):
-            wanted.update((look, rgb, seed) for rgb in look.colors for seed in range(PATTERN_SEEDS))
-    for look, rgb, seed in sorted(wanted, key=lambda w: (w[0].name, w[1], w[2])):
+            surfaces.update((look, rgb, seed) for rgb in look.colors for seed in range(PATTERN_SEEDS))
+    for look, rgb, seed in sorted(wanted | surfaces, key=lambda w: (w[0].name, w[1], w[2])):
         textures.make(look.generator, look.params, rgb, seed, look.size)
-    return len(wanted)
+        if (look, rgb, seed) in surfaces:  # a room surface's mean colour is memoised beside its image
+            _texture_mean(look.generator, look.params, rgb, seed, look.size)
+    return len(wanted | surfaces)
 
 
 # ---------------------------------------------------------------- room surfaces

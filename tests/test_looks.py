@@ -146,7 +146,8 @@ def test_a_window_shows_the_part_of_a_panorama_it_faces(tmp_path: Path) -> None:
 
 
 def test_texture_bank_holds_every_image_scenes_ask_for() -> None:
-    """After the bank, composing scenes of every family makes no new texture image."""
+    """After the bank, composing scenes of every family makes no new texture image, and works out
+    no room surface's mean colour again."""
     from refspatial.assets import load_catalogue
     from refspatial.compose import SceneRejected, compose
     from refspatial.recipe import load_recipe
@@ -154,7 +155,7 @@ def test_texture_bank_holds_every_image_scenes_ask_for() -> None:
     catalogue = load_catalogue()
     made = looks.texture_bank(looks.load_looks(), catalogue.categories, catalogue.colors)
     assert made <= textures.CACHE_IMAGES, "the image cache would evict part of the bank"
-    before = textures._make.cache_info().misses
+    before, means = textures._make.cache_info().misses, looks._texture_mean.cache_info().misses
     for name in ("tabletop", "kitchen_counter", "shelf", "room"):
         for seed in range(3):
             try:
@@ -162,3 +163,4 @@ def test_texture_bank_holds_every_image_scenes_ask_for() -> None:
             except SceneRejected:  # a crowded draw is redrawn by the pipeline; its textures were made
                 pass
     assert textures._make.cache_info().misses == before
+    assert looks._texture_mean.cache_info().misses == means
