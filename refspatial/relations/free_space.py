@@ -126,8 +126,8 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     offset = any(c.kind == "offset" for c in constraints)
     if not offset and area <= MIN_FREE_AREA_M2:
         return None
-    seen, cleared, roomy = raster.flags(v, support, z, first, last)
     cells = (rows[inside] + first[1] - raster.first[1], cols[inside] + first[0] - raster.first[0])
+    seen, cleared, roomy = raster.flags(v, support, z, cells)
     visible = seen[cells]
     if len(free) == 0 or visible.sum() < max(1, MIN_VISIBLE_SHARE * len(free)):
         return None
@@ -426,32 +426,29 @@ class _Raster:
         roomy.flags.writeable = False
         return roomy
 
-    def flags(self, v: ViewFacts, support: int, z: float, first: np.ndarray,
-              last: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Bool rasters (seen, cleared, roomy), known at least over the free cells first..last
-        (inclusive (x, y) indices): a cell's centre at height z is unoccluded in the picture,
+    def flags(self, v: ViewFacts, support: int, z: float,
+              cells: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Bool rasters (seen, cleared, roomy), known at least at ``cells`` ((rows, columns) of
+        free cells of this raster): a cell's centre at height z is unoccluded in the picture,
         falls on a pixel ``image_clearance`` keeps, and lies ANSWER_ROOM_M clear of every
         obstacle's ground outline. Each is a property of the cell alone, worked out once, when a
         solve first looks at the cell: the four directions from every anchor and every question
         after them meet the same cells, and a room's floor holds half a million of them, most
-        never looked at (testing all of them took 0.3 s a view)."""
+        never looked at (testing all of them took 0.3 s a view). Only the cells in a solve's
+        regions are asked, not their box: a sector fills about half of its box."""
         if self._flags is None:
             self._flags = (np.zeros_like(self.free), np.zeros_like(self.free),
                            shared(("roomy_raster", self._world), self._roomy))
             self._known = np.zeros_like(self.free)
         seen, cleared, _ = self._flags
-        a = np.maximum(first, self.first) - self.first
-        b = np.minimum(last, self.first + self.free.shape[::-1] - 1) - self.first + 1
-        if np.all(b > a):
-            window = (slice(a[1], b[1]), slice(a[0], b[0]))
-            rows, cols = np.nonzero(self.free[window] & ~self._known[window])
-            if len(rows):
-                rows, cols = rows + a[1], cols + a[0]
-                centres = (np.column_stack([cols + self.first[0], rows + self.first[1]]) + 0.5) * CELL_M
-                uv, depth = project(np.column_stack([centres, np.full(len(centres), z)]), v.K, v.T_world_cam)
-                seen[rows, cols] = _unoccluded(v, uv, depth)
-                cleared[rows, cols] = _cleared(image_clearance(v, support), uv)
-            self._known[window] = True
+        todo = ~self._known[cells]
+        if todo.any():
+            rows, cols = cells[0][todo], cells[1][todo]
+            centres = (np.column_stack([cols + self.first[0], rows + self.first[1]]) + 0.5) * CELL_M
+            uv, depth = project(np.column_stack([centres, np.full(len(centres), z)]), v.K, v.T_world_cam)
+            seen[rows, cols] = _unoccluded(v, uv, depth)
+            cleared[rows, cols] = _cleared(image_clearance(v, support), uv)
+            self._known[rows, cols] = True
         return self._flags
 
     def _clear_of(self, cells: np.ndarray, outline: np.ndarray, grow: float) -> None:
