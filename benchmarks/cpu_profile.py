@@ -5,7 +5,7 @@
 bench.py times its stages by the wall clock, which any other job on the machine inflates (a
 session's reads made every stage five times slower there). This counts the CPU time of this
 process alone (``time.process_time``), pinned to one core with Mesa's rasteriser single-threaded
-as every worker runs, and keeps the fastest of several passes over the same seeds. Besides the
+and the garbage collector set as every worker runs, and keeps the fastest of several passes over the same seeds. Besides the
 pipeline's own stages and the shard write, it splits the two largest: relations (the per-view
 facts, the free-space entries stored with every record, the other predicates) and questions (by
 family). Both start warm, like bench.py: every texture image and shape variant is made first.
@@ -36,6 +36,7 @@ from refspatial.relations.facts import posed_shapes  # noqa: E402
 from refspatial.relations.geometry import forget_shared  # noqa: E402
 from refspatial.render import render_views  # noqa: E402
 from refspatial.seeding import scene_seed, stage_rng  # noqa: E402
+from refspatial.shard_job import fewer_full_collections  # noqa: E402
 
 
 class Clock:
@@ -56,7 +57,8 @@ def stages_pass(recipe, catalogue, seeds: list[int], out: Path) -> tuple[dict[st
     """The pipeline's stages (its own timers, reading CPU time) and the shard write, one pass."""
     clock, records = Clock(), 0
     forget_shared()
-    with ShardWriter(out, {"profile": {"recipe": recipe.name}}) as writer:
+    # The garbage collector's setting while a worker makes a shard (run_shard's own).
+    with fewer_full_collections(), ShardWriter(out, {"profile": {"recipe": recipe.name}}) as writer:
         for seed in seeds:
             outcome = pipeline.generate_scene(recipe, catalogue, seed)
             for stage, s in outcome.seconds.items():

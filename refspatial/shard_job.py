@@ -29,7 +29,7 @@ if TYPE_CHECKING:  # kept out of worker start-up: assets imports trimesh (~2 s)
 FORMAT = "refspatial-shards"
 FORMAT_VERSION = 1
 # Gen-1 collections between the garbage collector's full passes while a shard is made (Python's
-# default is 10): see ``_fewer_full_collections``.
+# default is 10): see ``fewer_full_collections``.
 FULL_PASS_EVERY = 100
 
 
@@ -81,7 +81,7 @@ def run_shard(job: ShardJob, on_scene: OnScene | None = None,
     """
     seconds: dict[str, float] = {}
     skipped, qa, records = [], 0, 0
-    with _fewer_full_collections(), open_writer(job.mcap_path, _shard_metadata(job)) as writer:
+    with fewer_full_collections(), open_writer(job.mcap_path, _shard_metadata(job)) as writer:
         for index in range(job.start, job.stop):
             outcome = _scene(job, index)
             for record in outcome.records:
@@ -110,7 +110,7 @@ def run_shard(job: ShardJob, on_scene: OnScene | None = None,
 
 
 @contextmanager
-def _fewer_full_collections() -> Iterator[None]:
+def fewer_full_collections() -> Iterator[None]:
     """Python's garbage collector with full passes ten times rarer, for the shard's duration.
 
     A scene's facts and caches live long enough to reach the oldest generation, and at the
