@@ -122,7 +122,15 @@ def _add(program: list[Node], node: Node) -> int:
 
 def resolves(ref: Ref, view: ViewFacts) -> bool:
     """The description picks exactly its object, without near-ties or idle relations, by a name
-    that no background piece of the room also answers to."""
+    that no background piece of the room also answers to (memoised per view: one in six
+    descriptions the search draws has been checked before)."""
+    key = ("resolves", ref)
+    if key not in view.cache:
+        view.cache[key] = _resolves(ref, view)
+    return view.cache[key]
+
+
+def _resolves(ref: Ref, view: ViewFacts) -> bool:
     if named_like_a_prop(view, ref.category):
         return False
     program: list[Node] = []
