@@ -387,3 +387,34 @@ def test_vector_length_is_numpys_norm_bit_for_bit():
     single = np.array([0.1, 0.2, 0.3], dtype=np.float32)
     assert length(single) == float(np.linalg.norm(single))  # computed in float32, as numpy does
     assert length(np.array([[1.0, 2.0], [3.0, 4.0]])) == np.linalg.norm(np.array([[1.0, 2.0], [3.0, 4.0]]))
+
+
+def test_between_candidates_hold_every_true_triple_and_change_no_listing(monkeypatch):
+    """The relation stage decides ``between`` only for the triples its plan-view candidates name;
+    on random tables every true triple must be among them, and the listing must be the one made
+    by deciding every triple."""
+    import dataclasses
+    from itertools import combinations
+
+    from refspatial.relations.directional import between_candidates
+
+    rng = np.random.default_rng(11)
+    trues = 0
+    for _ in range(30):
+        n = int(rng.integers(3, 10))
+        xy = rng.uniform(-0.35, 0.35, size=(n, 2))
+        v = view(*(obj(i, "cup", "red", float(x), float(y), size=float(rng.uniform(0.04, 0.1)))
+                   for i, (x, y) in enumerate(xy)))
+        objs = v.askable()
+        maybe = between_candidates(v, objs)
+        for a in objs:
+            for b, c in combinations(objs, 2):
+                if a is not b and a is not c and PREDICATES["between"](v, a, b, c) is True:
+                    trues += 1
+                    assert (a.object_id, b.object_id, c.object_id) in maybe
+        fresh = view(*v.objects)
+        listed = computed_relations(fresh)
+        monkeypatch.setitem(PREDICATES, "between", dataclasses.replace(PREDICATES["between"], candidates=None))
+        assert computed_relations(view(*v.objects)) == listed
+        monkeypatch.undo()
+    assert trues > 20  # the layouts do put things between others

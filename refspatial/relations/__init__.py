@@ -39,7 +39,11 @@ def computed_relations(view: ViewFacts) -> list[dict]:
         if pred.kind == "region":
             out.extend(_free_space_entries(view, objs))
             continue
-        for group in _groups(pred, objs):
+        groups = _groups(pred, objs)
+        if pred.candidates is not None and pred.kind == "relation":  # only true groups are listed
+            maybe = pred.candidates(view, objs)
+            groups = (g for g in groups if tuple(o.object_id for o in g) in maybe)
+        for group in groups:
             value = pred(view, *group)
             ids = [o.object_id for o in group]
             if pred.kind == "relation" and value is True:

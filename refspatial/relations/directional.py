@@ -177,7 +177,30 @@ def closer_to_camera(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     return surface if surface == centre == straight else None
 
 
-@predicate("between", family="between", arity=3, frame="world")
+def between_candidates(v: ViewFacts, objs: list[ObjectFacts]) -> set[tuple[int, int, int]]:
+    """(a, b, c) ids for which ``between`` may be True by the plan-view part of its test alone:
+    A's centre in the middle of the B-C line (BETWEEN_T) and at most BETWEEN_LATERAL_SHARE of
+    its length off it, the anchors BETWEEN_MIN_GAP_M apart, with a margin against rounding.
+    One triple in about sixteen passes; listing the true ones then decides only those."""
+    if len(objs) < 3:
+        return set()
+    ids = np.array([o.object_id for o in objs])
+    centres = np.array([o.center_world_m[:2] for o in objs], dtype=float)
+    b, c = np.triu_indices(len(objs), k=1)
+    seg = centres[c] - centres[b]  # (pairs, 2)
+    span = np.sqrt((seg * seg).sum(1))
+    rel = centres[:, None, :] - centres[b][None, :, :]  # (objects, pairs, 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (rel * seg).sum(-1) / span**2
+        off = np.abs(seg[:, 0] * rel[..., 1] - seg[:, 1] * rel[..., 0]) / span
+    slack = 1e-9
+    maybe = ((span >= BETWEEN_MIN_GAP_M - slack) & (t >= BETWEEN_T[0] - slack) & (t <= BETWEEN_T[1] + slack)
+             & (off <= BETWEEN_LATERAL_SHARE * span + slack))
+    a, pair = np.nonzero(maybe)
+    return {(int(ids[i]), int(ids[b[k]]), int(ids[c[k]])) for i, k in zip(a, pair) if i != b[k] and i != c[k]}
+
+
+@predicate("between", family="between", arity=3, frame="world", candidates=between_candidates)
 def between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts, c: ObjectFacts) -> Verdict:
     """A lies in the ground-plane corridor joining B and C, on the same level as both, and looks it.
 

@@ -35,6 +35,9 @@ class Predicate:
     fn: Callable[..., Any]
     kind: str = "relation"  # "relation", "measure" or "region"
     symmetric: bool = False  # p(a, b) == p(b, a): listed once per unordered pair
+    # For a relation rarely true of a group: (view, objects) -> the id tuples for which it may
+    # hold (a superset of the true ones), so that listing every true group skips the rest.
+    candidates: Callable[..., set[tuple[int, ...]]] | None = None
 
     def __call__(self, view: ViewFacts, *objects: ObjectFacts, **options: Any) -> Any:
         if options:
@@ -75,11 +78,12 @@ PREDICATES: dict[str, Predicate] = {}
 
 
 def predicate(name: str, family: str, arity: int, frame: str, inverse: str | None = None,
-              kind: str = "relation", symmetric: bool = False):
+              kind: str = "relation", symmetric: bool = False,
+              candidates: Callable[..., set[tuple[int, ...]]] | None = None):
     def register(fn: Callable[..., Any]) -> Callable[..., Any]:
         if name in PREDICATES:
             raise ValueError(f"predicate {name!r} registered twice")
-        PREDICATES[name] = Predicate(name, family, arity, frame, inverse, fn, kind, symmetric)
+        PREDICATES[name] = Predicate(name, family, arity, frame, inverse, fn, kind, symmetric, candidates)
         return fn
 
     return register
