@@ -86,6 +86,11 @@ def bare_render(scenes: list, catalogue, timings: dict[str, float] | None = None
     return time.perf_counter() - start, views
 
 
+def stage_seconds(summary: dict, e2e_s: float) -> dict[str, float]:
+    """A shard's stage timers, with what the end-to-end time holds beyond them as write+other."""
+    return dict(summary["seconds"], **{"write+other": e2e_s - sum(summary["seconds"].values())})
+
+
 def other_families(main_recipe, catalogue, n: int) -> None:
     """Every other recipe's stages, end to end on one core: a family's own costs can go wrong
     unseen by the main recipe's table (rooms' relations ran ten times too slow for two sessions)."""
@@ -98,7 +103,7 @@ def other_families(main_recipe, catalogue, n: int) -> None:
         with tempfile.TemporaryDirectory() as tmp:
             e2e_s, summary = end_to_end(recipe, catalogue, n, Path(tmp))
         records = max(summary["records"], 1)
-        stages = dict(summary["seconds"], **{"write+other": e2e_s - sum(summary["seconds"].values())})
+        stages = stage_seconds(summary, e2e_s)
         cpu_side = sum(s for stage, s in stages.items() if stage != "render")
         print(f"  {name:<16} {summary['records'] / e2e_s:5.2f} records/s  " + "  ".join(
             f"{stage} {1000 * stages.get(stage, 0.0) / records:.1f}" for stage in (*STAGES, "write+other"))
@@ -148,8 +153,7 @@ def main() -> None:
           f"{len(summary['skipped'])} scenes rejected")
     print(f"  records/s {records / e2e_s:.2f}   QA/s {qa / e2e_s:.1f}   QA/record {qa / max(records, 1):.1f}   "
           f"shard bytes/record {size / max(records, 1) / 1e6:.2f} MB")
-    stages = summary["seconds"]
-    stages["write+other"] = e2e_s - sum(stages.values())
+    stages = stage_seconds(summary, e2e_s)
     for stage in (*STAGES, "write+other"):
         s = stages.get(stage, 0.0)
         print(f"  {stage:<12} {s:7.2f} s  {100 * s / e2e_s:5.1f} %  {1000 * s / max(records, 1):7.1f} ms/record")

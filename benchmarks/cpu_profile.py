@@ -5,10 +5,11 @@
 bench.py times its stages by the wall clock, which any other job on the machine inflates (a
 session's reads made every stage five times slower there). This counts the CPU time of this
 process alone (``time.process_time``), pinned to one core with Mesa's rasteriser single-threaded
-and the garbage collector set as every worker runs, and keeps the fastest of several passes over the same seeds. Besides the
-pipeline's own stages and the shard write, it splits the two largest: relations (the per-view
-facts, the free-space entries stored with every record, the other predicates) and questions (by
-family). Both start warm, like bench.py: every texture image and shape variant is made first.
+and the garbage collector set as every worker runs, and keeps the fastest of several passes over
+the same seeds. Besides the pipeline's own stages and the shard write, it splits the two largest:
+relations (the per-view facts, the free-space entries stored with every record, the other
+predicates) and questions (by family). Both start warm, like bench.py: every texture image and
+shape variant is made first.
 """
 
 from __future__ import annotations

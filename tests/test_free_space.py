@@ -307,7 +307,7 @@ def test_cell_flags_match_the_tests_they_cache(views):
     for v in views:
         support, polygon, z = fs._platform(v, (), [v.objects[0]])
         raster = fs._raster(v, support, polygon, z)
-        seen, cleared, roomy = raster.flags(v, support, z, np.nonzero(raster.free))
+        seen, cleared, roomy = raster.flags(v, np.nonzero(raster.free))
         every = np.indices(raster.free.shape).reshape(2, -1)  # and the raster itself, cell by cell
         cells = (np.column_stack([every[1] + raster.first[0], every[0] + raster.first[1]]) + 0.5) * fs.CELL_M
         exact = fs._free_exact(v, cells, support, polygon, z).reshape(raster.free.shape)
@@ -343,14 +343,14 @@ def test_cell_flags_worked_out_cell_by_cell_match_the_whole(views):
         support, polygon, z = fs._platform(v, (), [v.objects[0]])
         whole = fs._Raster(v, support, polygon, z)
         every = np.nonzero(whole.free)
-        expected = [f.copy() for f in whole.flags(v, support, z, every)]
+        expected = [f.copy() for f in whole.flags(v, every)]
         part = fs._Raster(v, support, polygon, z)
         for _ in range(12):
             pick = rng.random(len(every[0])) < rng.uniform(0.01, 0.3)
             cells = (every[0][pick], every[1][pick])
-            got = part.flags(v, support, z, cells)
+            got = part.flags(v, cells)
             for f, e in zip(got[:2], expected[:2]):
                 assert np.array_equal(f[cells], e[cells])
-        got = part.flags(v, support, z, every)  # the rest
+        got = part.flags(v, every)  # the rest
         for f, e in zip(got, expected):
             assert np.array_equal(f, e)

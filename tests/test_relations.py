@@ -418,3 +418,13 @@ def test_between_candidates_hold_every_true_triple_and_change_no_listing(monkeyp
         assert computed_relations(view(*v.objects)) == listed
         monkeypatch.undo()
     assert trues > 20  # the layouts do put things between others
+
+
+def test_only_a_relation_may_list_its_true_groups_from_candidates():
+    # Measures and free space list every value, so a candidates filter would drop some silently.
+    from refspatial.relations import predicate
+
+    with pytest.raises(ValueError, match="only a relation"):
+        predicate("a_measure_with_candidates", family="distance", arity=2, frame="world", kind="measure",
+                  candidates=lambda v, objs: set())(lambda v, a, b: None)
+    assert "a_measure_with_candidates" not in PREDICATES

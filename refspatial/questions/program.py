@@ -373,10 +373,6 @@ def execute(program: list[Node], views: ViewFacts | Views, skip: int | None = No
     return values
 
 
-def answer(program: list[Node], views: ViewFacts | Views) -> Value:
-    return execute(program, views)[-1]
-
-
 def count_steps(program: list[Node]) -> int:
     """RefSpatial-Bench's step count: anchor objects plus the relation phrases tied to them.
 

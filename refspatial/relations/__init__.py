@@ -40,7 +40,7 @@ def computed_relations(view: ViewFacts) -> list[dict]:
             out.extend(_free_space_entries(view, objs))
             continue
         groups = _groups(pred, objs)
-        if pred.candidates is not None and pred.kind == "relation":  # only true groups are listed
+        if pred.candidates is not None:  # a relation: only its true groups are listed
             maybe = pred.candidates(view, objs)
             groups = (g for g in groups if tuple(o.object_id for o in g) in maybe)
         for group in groups:

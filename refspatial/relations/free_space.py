@@ -127,7 +127,7 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     if not offset and area <= MIN_FREE_AREA_M2:
         return None
     cells = (rows[inside] + first[1] - raster.first[1], cols[inside] + first[0] - raster.first[0])
-    seen, cleared, roomy = raster.flags(v, support, z, cells)
+    seen, cleared, roomy = raster.flags(v, cells)
     visible = seen[cells]
     if len(free) == 0 or visible.sum() < max(1, MIN_VISIBLE_SHARE * len(free)):
         return None
@@ -401,6 +401,7 @@ class _Raster:
     """
 
     def __init__(self, v: ViewFacts, support: int, polygon: np.ndarray, z: float) -> None:
+        self.support, self.z = support, z
         self.first = np.floor(polygon.min(0) / CELL_M).astype(int)
         # Which cells are free, and which roomy, is world geometry: a scene's views share it.
         self._obstacles = _obstacles(v, support, z)
@@ -426,10 +427,10 @@ class _Raster:
         roomy.flags.writeable = False
         return roomy
 
-    def flags(self, v: ViewFacts, support: int, z: float,
-              cells: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def flags(self, v: ViewFacts, cells: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Bool rasters (seen, cleared, roomy), known at least at ``cells`` ((rows, columns) of
-        free cells of this raster): a cell's centre at height z is unoccluded in the picture,
+        free cells of this raster) in view ``v``, the raster's own: a cell's centre at the
+        platform's height is unoccluded in the picture,
         falls on a pixel ``image_clearance`` keeps, and lies ANSWER_ROOM_M clear of every
         obstacle's ground outline. Each is a property of the cell alone, worked out once, when a
         solve first looks at the cell: the four directions from every anchor and every question
@@ -445,9 +446,9 @@ class _Raster:
         if todo.any():
             rows, cols = cells[0][todo], cells[1][todo]
             centres = (np.column_stack([cols + self.first[0], rows + self.first[1]]) + 0.5) * CELL_M
-            uv, depth = project(np.column_stack([centres, np.full(len(centres), z)]), v.K, v.T_world_cam)
+            uv, depth = project(np.column_stack([centres, np.full(len(centres), self.z)]), v.K, v.T_world_cam)
             seen[rows, cols] = _unoccluded(v, uv, depth)
-            cleared[rows, cols] = _cleared(image_clearance(v, support), uv)
+            cleared[rows, cols] = _cleared(image_clearance(v, self.support), uv)
             self._known[rows, cols] = True
         return self._flags
 

@@ -83,6 +83,8 @@ def predicate(name: str, family: str, arity: int, frame: str, inverse: str | Non
     def register(fn: Callable[..., Any]) -> Callable[..., Any]:
         if name in PREDICATES:
             raise ValueError(f"predicate {name!r} registered twice")
+        if candidates is not None and kind != "relation":
+            raise ValueError(f"predicate {name!r}: only a relation lists its true groups from candidates")
         PREDICATES[name] = Predicate(name, family, arity, frame, inverse, fn, kind, symmetric, candidates)
         return fn
 
