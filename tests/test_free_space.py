@@ -334,16 +334,20 @@ def test_cell_flags_match_the_tests_they_cache(views):
     assert checked > 1000
 
 
-def test_cell_flags_worked_out_cell_by_cell_match_the_whole(views):
-    # Flags are worked out for the cells a solve looks at, when it first does: cell sets asked in
-    # any order, overlapping or not, leave the same flags as the whole platform asked at once.
+def test_cell_flags_worked_out_cell_by_cell_match_the_whole(views, monkeypatch):
+    # On a room's floor, flags are worked out for the cells a solve looks at, when it first does:
+    # cell sets asked in any order, overlapping or not, leave the same flags as a table's
+    # raster, which works out all its free cells at the first call.
     from refspatial.relations import free_space as fs
     rng = np.random.default_rng(3)
     for v in views:
         support, polygon, z = fs._platform(v, (), [v.objects[0]])
         whole = fs._Raster(v, support, polygon, z)
         every = np.nonzero(whole.free)
-        expected = [f.copy() for f in whole.flags(v, every)]
+        assert whole.free.size <= fs.ALL_AT_ONCE_CELLS
+        expected = [f.copy() for f in whole.flags(v, (every[0][:1], every[1][:1]))]
+        assert np.array_equal(whole._known, whole.free)
+        monkeypatch.setattr(fs, "ALL_AT_ONCE_CELLS", 0)  # as on a floor: cell by cell
         part = fs._Raster(v, support, polygon, z)
         for _ in range(12):
             pick = rng.random(len(every[0])) < rng.uniform(0.01, 0.3)
@@ -354,3 +358,4 @@ def test_cell_flags_worked_out_cell_by_cell_match_the_whole(views):
         got = part.flags(v, every)  # the rest
         for f, e in zip(got, expected):
             assert np.array_equal(f, e)
+        monkeypatch.undo()
