@@ -240,6 +240,21 @@ def test_covered_pixels_is_the_union_of_pixel_centres_inside(coords):
         _covered_brute_force(tris, 40, 30, 1e-6)
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.lists(st.tuples(*[st.floats(-30, 70, allow_nan=False)] * 6), max_size=8), max_size=5))
+def test_covered_pixels_of_several_sets_at_once_are_each_set_s_own(sets):
+    # A view's silhouettes are drawn together: each count must be the set's alone, whatever the
+    # other sets hold (nothing, only triangles off the image, or triangles on the same pixels).
+    from refspatial.relations.geometry import covered_pixels, covered_pixels_each
+
+    meshes = [np.array(s, dtype=float).reshape(-1, 3, 2) for s in sets]
+    meshes = [np.concatenate([m, m[:, ::-1]]) for m in meshes]
+    alone = [covered_pixels(m, 40, 30) for m in meshes]
+    assert covered_pixels_each(meshes, 40, 30) == alone
+    brute = [_covered_brute_force(m, 40, 30, 1e-6) for m in meshes]
+    assert all(a <= b for a, b in zip(alone, brute))
+
+
 def test_a_repeated_corner_does_not_hide_the_inside_of_an_outline():
     """Outlines are stored rounded to the micrometre, which can repeat a corner: its zero-length
     edge has no normal, and every point read as outside (a bottle under a plate's middle was

@@ -21,8 +21,8 @@ from scipy.spatial import ConvexHull
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
 from ..vector import length
-from .geometry import covered_pixels, gap_between, overlap_share, project
-from .masks import BOXES_KEY, PIXELS_KEY, box_of, object_boxes, pixel_stats
+from .geometry import covered_pixels_each, gap_between, overlap_share, project
+from .masks import BOXES_KEY, PIXELS_KEY, PixelStats, box_of, object_boxes, pixel_stats
 
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
 MIN_VISIBLE_PX = 20
@@ -279,8 +279,12 @@ def view_facts(scene: Scene, view: View, shapes: tuple[PosedShape, ...] | None =
     min_px = max(MIN_VISIBLE_PX, VISIBLE_SHARE_OF_IMAGE * view.seg.size)
     boxes = object_boxes(view.seg)
     shapes = posed_shapes(scene) if shapes is None else shapes
-    pixels = {}
-    objects = [_object_facts(o, s, view, right, forward, min_px, boxes, pixels) for o, s in zip(scene.objects, shapes)]
+    pixels = {o.object_id: pixel_stats(view.seg, view.depth_m, boxes, o.object_id, view.rgb) for o in scene.objects}
+    # Nothing seen: the share is 0 whatever the silhouette, which then need not be drawn.
+    seen = [(o, s) for o, s in zip(scene.objects, shapes) if pixels[o.object_id].count]
+    silhouettes = dict(zip((o.object_id for o, _ in seen), _silhouettes_px(seen, view)))
+    objects = [_object_facts(o, s, view, right, forward, min_px, boxes, pixels[o.object_id],
+                             silhouettes.get(o.object_id, 0)) for o, s in zip(scene.objects, shapes)]
     objects = _with_supports(objects, surfaces(scene.table.top_z_m, scene.table.levels_m),
                              np.array(scene.table.size_m))
     objects = _lost_in_containers(objects)
@@ -297,14 +301,11 @@ def surfaces(top_z: float, levels: tuple[float, ...]) -> dict[int, float]:
 
 
 def _object_facts(obj: PlacedObject, shape: PosedShape, view: View, right, forward, min_px: float, boxes,
-                  pixels: dict) -> ObjectFacts:
+                  stats: PixelStats, silhouette_px: int) -> ObjectFacts:
     asset = obj.asset
     centre = shape.aabb.mean(0)
-    stats = pixel_stats(view.seg, view.depth_m, boxes, obj.object_id, view.rgb)
-    pixels[obj.object_id] = stats
     px = stats.count
-    # Nothing seen: the share is 0 whatever the silhouette, which then need not be drawn.
-    share = min(1.0, px / max(_silhouette_px(shape.verts, asset.visual.faces, view), 1)) if px else 0.0
+    share = min(1.0, px / max(silhouette_px, 1)) if px else 0.0
     box = box_of(boxes, obj.object_id)  # the mask's bounding box: its span both ways
     seen_whole = px >= min_px and share >= MIN_VISIBLE_SHARE and box is not None and \
         min(box[0].stop - box[0].start, box[1].stop - box[1].start) >= MIN_VISIBLE_SPAN_SHARE * view.seg.shape[0]
@@ -355,13 +356,20 @@ def _footprint(asset, T: np.ndarray) -> np.ndarray:
     return (local @ T[:3, :3].T + T[:3, 3])[:, :2]
 
 
-def _silhouette_px(verts_world: np.ndarray, faces: np.ndarray, view: View) -> int:
-    """Pixels the object would cover with nothing in front of it (clipped to the image)."""
-    uv, z = project(verts_world, view.K, view.T_world_cam)
-    if np.any(z <= 0.01):
-        return int(view.seg.size)  # crosses the camera plane: cannot be occluded meaningfully
+def _silhouettes_px(objects: list[tuple[PlacedObject, PosedShape]], view: View) -> list[int]:
+    """Pixels each object would cover with nothing in front of it (clipped to the image), drawn
+    together."""
     h, w = view.seg.shape
-    return covered_pixels(uv[faces], w, h)
+    out, drawn = [], []
+    for obj, shape in objects:
+        uv, z = project(shape.verts, view.K, view.T_world_cam)
+        if np.any(z <= 0.01):
+            out.append(int(view.seg.size))  # crosses the camera plane: cannot be occluded meaningfully
+        else:
+            out.append(None)
+            drawn.append(uv[obj.asset.visual.faces])
+    counts = iter(covered_pixels_each(drawn, w, h))
+    return [next(counts) if n is None else n for n in out]
 
 
 def _with_supports(objects: list[ObjectFacts], fixed: dict[int, float], table_size: np.ndarray) -> list[ObjectFacts]:

@@ -220,7 +220,15 @@ def project(points_world: np.ndarray, K: np.ndarray, T_world_cam: np.ndarray) ->
 
 def covered_pixels(tris: np.ndarray, width: int, height: int) -> int:
     """Pixels of a width x height image whose centre lies in at least one of the (F, 3, 2) pixel-
-    coordinate triangles: the union, counted once, with the rasteriser's own centre-sampling rule.
+    coordinate triangles: the union, counted once, with the rasteriser's own centre-sampling rule
+    (``covered_pixels_each`` of one set)."""
+    return covered_pixels_each([tris], width, height)[0]
+
+
+def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> list[int]:
+    """``covered_pixels`` of each (F, 3, 2) triangle set, worked out together: a view's objects
+    in one pass of array operations rather than one pass each (the arithmetic is per triangle and
+    per row, so each count is what it would be alone).
 
     For the silhouette of a closed mesh the triangles of one winding suffice (front faces, or
     back faces, each tile it), so only those with positive signed area are drawn. (cv2.fillPoly
@@ -228,15 +236,20 @@ def covered_pixels(tris: np.ndarray, width: int, height: int) -> int:
     triangle is cut into one span of pixels per row it covers; spans are summed as +1/-1 marks
     along their rows, and a pixel is covered where the running sum is positive.
     """
+    counts = [0] * len(meshes)
+    if not meshes:
+        return counts
+    tris = np.concatenate(meshes)
+    mesh = np.repeat(np.arange(len(meshes)), [len(m) for m in meshes])
     a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    tris = tris[area > 1e-12]
+    tris, mesh = tris[area > 1e-12], mesh[area > 1e-12]
     # Rows whose centre (row + 0.5) lies within each triangle's height, clipped to the image.
     r0 = np.clip(np.ceil(tris[..., 1].min(1) - 0.5), 0, height).astype(np.int64)
     r1 = np.clip(np.floor(tris[..., 1].max(1) - 0.5) + 1, 0, height).astype(np.int64)
     n = np.maximum(r1 - r0, 0)
     if n.sum() == 0:
-        return 0
+        return counts
     owner = np.repeat(np.arange(len(tris)), n)
     rows = r0[owner] + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
     y = rows + 0.5
@@ -255,12 +268,24 @@ def covered_pixels(tris: np.ndarray, width: int, height: int) -> int:
     first = np.maximum(np.ceil(lo - 0.5), 0)
     last = np.minimum(np.floor(hi - 0.5), width - 1)
     ok &= last >= first
-    rows, first, last = rows[ok], first[ok].astype(np.int64), last[ok].astype(np.int64)
+    rows, first, last, mesh = rows[ok], first[ok].astype(np.int64), last[ok].astype(np.int64), mesh[owner[ok]]
     if len(rows) == 0:
-        return 0
-    top, left = rows.min(), first.min()  # marks on the box the spans cover, not the whole image
-    rows, first, last = rows - top, first - left, last - left
-    h, stride = int(rows.max()) + 1, int(last.max()) + 2
-    marks = np.bincount(rows * stride + first, minlength=h * stride) - \
-        np.bincount(rows * stride + last + 1, minlength=h * stride)
-    return int(np.count_nonzero(np.cumsum(marks.reshape(h, stride), axis=1)))
+        return counts
+    # Each set's marks go on the box its spans cover, the boxes laid end to end in one array;
+    # spans come grouped by set, in the sets' order.
+    starts = np.flatnonzero(np.r_[True, mesh[1:] != mesh[:-1]])
+    drawn = mesh[starts]
+    top, left = np.minimum.reduceat(rows, starts), np.minimum.reduceat(first, starts)
+    h = np.maximum.reduceat(rows, starts) - top + 1
+    stride = np.maximum.reduceat(last, starts) - left + 2
+    size = h * stride
+    offset = np.cumsum(size) - size
+    k = np.repeat(np.arange(len(drawn)), np.diff(np.r_[starts, len(rows)]))
+    at = offset[k] + (rows - top[k]) * stride[k] - left[k]
+    total = int(size.sum())
+    marks = np.bincount(at + first, minlength=total) - np.bincount(at + last + 1, minlength=total)
+    # Every row's marks sum to zero, so one running sum over all the boxes is each row's own.
+    covered = np.cumsum(marks) > 0
+    for m, count in zip(drawn.tolist(), np.add.reduceat(covered, offset).tolist()):
+        counts[m] = int(count)
+    return counts
