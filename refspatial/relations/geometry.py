@@ -253,18 +253,21 @@ def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> li
     owner = np.repeat(np.arange(len(tris)), n)
     rows = r0[owner] + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
     y = rows + 0.5
-    t = tris[owner]
     lo = np.full(len(rows), -np.inf)
     hi = np.full(len(rows), np.inf)
     ok = np.ones(len(rows), dtype=bool)
+    edges = np.roll(tris, -1, axis=1) - tris  # edge k runs from corner k to corner k + 1
     for k in range(3):  # inside: left of (or on) every edge p -> q of a positively wound triangle
-        p, q = t[:, k], t[:, (k + 1) % 3]
-        dx, dy = q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]
+        px, py = tris[:, k, 0][owner], tris[:, k, 1][owner]
+        dx, dy = edges[:, k, 0][owner], edges[:, k, 1][owner]
+        w = y - py
+        w *= dx
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # near-flat edges cross far away
-            x = p[:, 0] + dx * (y - p[:, 1]) / dy  # where the edge's line crosses this row
-        hi = np.where(dy > 0, np.minimum(hi, x), hi)
-        lo = np.where(dy < 0, np.maximum(lo, x), lo)
-        ok &= (dy != 0) | (dx * (y - p[:, 1]) >= 0)
+            x = w / dy
+        x += px  # where the edge's line crosses this row: px + dx * (y - py) / dy
+        np.minimum(hi, x, out=hi, where=dy > 0)
+        np.maximum(lo, x, out=lo, where=dy < 0)
+        ok &= (dy != 0) | (w >= 0)
     first = np.maximum(np.ceil(lo - 0.5), 0)
     last = np.minimum(np.floor(hi - 0.5), width - 1)
     ok &= last >= first
