@@ -37,7 +37,7 @@ from refspatial.relations.facts import posed_shapes  # noqa: E402
 from refspatial.relations.geometry import forget_shared  # noqa: E402
 from refspatial.render import render_views  # noqa: E402
 from refspatial.seeding import scene_seed, stage_rng  # noqa: E402
-from refspatial.shard_job import fewer_full_collections  # noqa: E402
+from refspatial.shard_job import rarer_collections  # noqa: E402
 
 
 class Clock:
@@ -59,7 +59,7 @@ def stages_pass(recipe, catalogue, seeds: list[int], out: Path) -> tuple[dict[st
     clock, records = Clock(), 0
     forget_shared()
     # The garbage collector's setting while a worker makes a shard (run_shard's own).
-    with fewer_full_collections(), ShardWriter(out, {"profile": {"recipe": recipe.name}}) as writer:
+    with rarer_collections(), ShardWriter(out, {"profile": {"recipe": recipe.name}}) as writer:
         for seed in seeds:
             outcome = pipeline.generate_scene(recipe, catalogue, seed)
             for stage, s in outcome.seconds.items():

@@ -71,7 +71,7 @@ def test_a_shard_runs_with_rarer_full_collections_and_restores_the_collector(tin
     import gc
 
     import refspatial.pipeline as pipeline
-    from refspatial.shard_job import FULL_PASS_EVERY, ShardJob
+    from refspatial.shard_job import FULL_PASS_EVERY, YOUNG_PASS_AFTER, ShardJob
 
     seen = []
 
@@ -84,7 +84,7 @@ def test_a_shard_runs_with_rarer_full_collections_and_restores_the_collector(tin
     (tmp_path / "shards").mkdir()
     summary = run_shard(ShardJob(0, 0, 2, tmp_path, tiny, catalogue, base_seed=7))
     assert len(summary["skipped"]) == 2
-    assert seen == [(before[0], before[1], FULL_PASS_EVERY)] * 2
+    assert seen == [(YOUNG_PASS_AFTER, before[1], FULL_PASS_EVERY)] * 2
     assert gc.get_threshold() == before
 
     def interrupt(tick):
