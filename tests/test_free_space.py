@@ -216,7 +216,13 @@ def test_far_from_equals_scipy_distance_transform(radius):
             pixels[r:r + rng.integers(1, 12), c:c + rng.integers(1, 12)] = True
         pixels[0, 0] = k % 2 == 0
         pixels[-1, -1] = k % 3 == 0
-        assert np.array_equal(_far_from(pixels, radius), distance_transform_edt(~pixels) >= radius)
+        expected = distance_transform_edt(~pixels) >= radius
+        assert np.array_equal(_far_from(pixels, radius), expected)
+        # Given a window holding every True pixel, the whole frame's answer.
+        rows, cols = np.flatnonzero(pixels.any(1)), np.flatnonzero(pixels.any(0))
+        r0, c0 = max(rows[0] - int(rng.integers(0, 3)), 0), max(cols[0] - int(rng.integers(0, 3)), 0)
+        window = pixels[r0:rows[-1] + 1 + int(rng.integers(0, 3)), c0:cols[-1] + 1]
+        assert np.array_equal(_far_from(window, radius, at=(r0, c0), shape=pixels.shape), expected)
     empty = np.zeros((20, 30), dtype=bool)
     assert np.array_equal(_far_from(empty, radius), distance_transform_edt(~empty) >= radius)
 

@@ -360,9 +360,10 @@ def _silhouettes_px(objects: list[tuple[PlacedObject, PosedShape]], view: View) 
     """Pixels each object would cover with nothing in front of it (clipped to the image), drawn
     together."""
     h, w = view.seg.shape
+    K, T = view.K, view.T_world_cam  # worked out by the camera at each ask
     out, drawn = [], []
     for obj, shape in objects:
-        uv, z = project(shape.verts, view.K, view.T_world_cam)
+        uv, z = project(shape.verts, K, T)
         if np.any(z <= 0.01):
             out.append(int(view.seg.size))  # crosses the camera plane: cannot be occluded meaningfully
         else:
