@@ -120,11 +120,13 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     raster = _raster(v, support, polygon, z)
     first, last = _grid(v, constraints, polygon)
     rows, cols = np.nonzero(raster.block(first, last))  # the free cells; then those in every region
+    offset = any(c.kind == "offset" for c in constraints)
+    if not offset and float(len(rows) * CELL_M**2) <= MIN_FREE_AREA_M2:
+        return None  # too little free room in the region's whole box (a third of the solves that find none)
     free = (np.column_stack([cols + first[0], rows + first[1]]) + 0.5) * CELL_M
     inside = _in_regions(v, constraints, free)
     free = free[inside]
     area = float(len(free) * CELL_M**2)
-    offset = any(c.kind == "offset" for c in constraints)
     if not offset and area <= MIN_FREE_AREA_M2:
         return None
     cells = (rows[inside] + first[1] - raster.first[1], cols[inside] + first[0] - raster.first[0])
@@ -680,12 +682,17 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
         # arithmetic costs less than gathering the pixels that are; the others are masked out.
         x, y = (_on_plane(u, w, s, M[k], t[k]) for k in (0, 1))
         ix, iy = (_cell_index(c, lo[k]) for k, c in enumerate((x, y)))
-    on = ok & (ix >= 0) & (ix < codes.shape[1]) & (iy >= 0) & (iy < codes.shape[0])
-    iy *= codes.shape[1]  # the flat index of each pixel's cell, 0 where off the codes
+    # Each pixel's cell as an index into the codes laid flat behind one zero code: pixels unseen
+    # or off the codes take that zero. (Read unsigned, a negative index is out of range too.)
+    rows, cols = codes.shape
+    on = ok & (ix.view(np.uint64) < cols) & (iy.view(np.uint64) < rows)
+    iy *= cols
     iy += ix
-    iy[~on] = 0
-    code = codes.ravel().take(iy)
-    code[~on] = 0
+    iy += 1
+    iy *= on
+    flat = np.zeros(codes.size + 1, dtype=codes.dtype)
+    flat[1:] = codes.ravel()
+    code = flat.take(iy)
     keep, edge = code == WHOLE, code == EDGE
     keep[edge] = _in_regions(v, constraints, np.column_stack([x[edge], y[edge]]))
     mask[r0:r1, c0:c1] = keep
