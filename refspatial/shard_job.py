@@ -121,8 +121,8 @@ def rarer_collections() -> Iterator[None]:
     against 0.9-1.0 with full passes ten times rarer. Young passes every 20,000 net new objects
     instead of 700 take that to 0.1: a scene makes almost no cyclic garbage (reference counts
     free the rest at once; the 171 young passes of 48 records freed 81 objects in all), and
-    peak memory is the same (BENCHMARKS.md, fifteenth and sixteenth sessions). Records are unaffected: no result
-    depends on when garbage is collected."""
+    peak memory is the same (BENCHMARKS.md, fifteenth and sixteenth sessions). Records are
+    unaffected: no result depends on when garbage is collected."""
     old = gc.get_threshold()
     gc.set_threshold(YOUNG_PASS_AFTER, old[1], FULL_PASS_EVERY)
     try:

@@ -221,10 +221,24 @@ def test_far_from_equals_scipy_distance_transform(radius):
         # Given a window holding every True pixel, the whole frame's answer.
         rows, cols = np.flatnonzero(pixels.any(1)), np.flatnonzero(pixels.any(0))
         r0, c0 = max(rows[0] - int(rng.integers(0, 3)), 0), max(cols[0] - int(rng.integers(0, 3)), 0)
-        window = pixels[r0:rows[-1] + 1 + int(rng.integers(0, 3)), c0:cols[-1] + 1]
+        window = pixels[r0:rows[-1] + 1 + int(rng.integers(0, 3)), c0:cols[-1] + 1 + int(rng.integers(0, 3))]
         assert np.array_equal(_far_from(window, radius, at=(r0, c0), shape=pixels.shape), expected)
     empty = np.zeros((20, 30), dtype=bool)
     assert np.array_equal(_far_from(empty, radius), distance_transform_edt(~empty) >= radius)
+
+
+def test_image_clearance_is_the_whole_frame_s_distance_transform(views):
+    """The clearance mask, read only around the objects and, for an object platform, again around
+    its own pixels, is the whole frame's transform of every other object's pixels."""
+    from scipy.ndimage import distance_transform_edt
+
+    from refspatial.relations.free_space import image_clearance
+
+    for v in views:
+        for support in (TABLE, *(o.object_id for o in v.objects)):
+            others = (v.seg >= 0) & (v.seg != support)
+            expected = distance_transform_edt(~others) >= IMAGE_CLEARANCE * v.width
+            assert np.array_equal(image_clearance(v, support), expected), support
 
 
 def test_no_free_spot_between_a_shelf_s_posts():

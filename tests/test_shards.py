@@ -66,8 +66,8 @@ def test_a_scene_that_raises_is_skipped_with_its_reason(tiny, catalogue, tmp_pat
                                         "detail": "RuntimeError: renderer lost its context"}]
 
 
-def test_a_shard_runs_with_rarer_full_collections_and_restores_the_collector(tiny, catalogue, tmp_path,
-                                                                            monkeypatch):
+def test_a_shard_runs_with_rarer_collections_and_restores_the_collector(tiny, catalogue, tmp_path,
+                                                                       monkeypatch):
     import gc
 
     import refspatial.pipeline as pipeline

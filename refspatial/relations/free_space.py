@@ -57,6 +57,7 @@ IMAGE_CLEARANCE = 0.02  # share of the image width between an answer point and a
 # object" there holds for a small one: 1.6 cm from a toy car's nose held nothing (annotator).
 ANSWER_ROOM_M = 0.04
 ALL_AT_ONCE_CELLS = 40_000  # rasters up to this many cells work out every free cell's view flags at once
+BOX_SLACK_M = 1e-9  # sector boxes are grown by this against rounding
 
 
 @dataclass(frozen=True)
@@ -122,7 +123,9 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     rows, cols = np.nonzero(raster.block(first, last))  # the free cells; then those in every region
     offset = any(c.kind == "offset" for c in constraints)
     if not offset and float(len(rows) * CELL_M**2) <= MIN_FREE_AREA_M2:
-        return None  # too little free room in the region's whole box (a third of the solves that find none)
+        # Too little free room in the region's whole box, so in the region, whose free cells are
+        # some of the box's (a third of the solves that find none end here).
+        return None
     free = (np.column_stack([cols + first[0], rows + first[1]]) + 0.5) * CELL_M
     inside = _in_regions(v, constraints, free)
     free = free[inside]
@@ -328,7 +331,8 @@ def _sector_box(centre: np.ndarray, axis: np.ndarray, r: float) -> np.ndarray:
     axis) around centre: its apex, the arc's ends, and the arc's extreme points in x and y
     where they fall inside it. A quarter of the square around the centre, so solves test
     fewer cells. It only bounds the cells a solve tests (the sector's own test decides each),
-    so it is grown by BOX_SLACK_M and worked out in scalars (a fifth of the array version's cost)."""
+    so it is grown by BOX_SLACK_M against rounding, and worked out in scalars (it is made for
+    every anchor and direction a view meets)."""
     cx, cy = float(centre[0]), float(centre[1])
     mid, half = math.atan2(float(axis[1]), float(axis[0])), math.radians(HALF_SECTOR_DEG)
     angles = [mid - half, mid + half]
@@ -336,9 +340,6 @@ def _sector_box(centre: np.ndarray, axis: np.ndarray, r: float) -> np.ndarray:
     xs = [cx] + [cx + r * math.cos(a) for a in angles]
     ys = [cy] + [cy + r * math.sin(a) for a in angles]
     return np.array([[min(xs) - BOX_SLACK_M, min(ys) - BOX_SLACK_M], [max(xs) + BOX_SLACK_M, max(ys) + BOX_SLACK_M]])
-
-
-BOX_SLACK_M = 1e-9  # bounding boxes of regions are grown by this against rounding
 
 
 def _in_regions(v: ViewFacts, constraints, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
@@ -406,7 +407,8 @@ class _Raster:
     Made once per view and platform (the free cells once per scene: they are world geometry):
     the relation stage and the questions solve hundreds of regions on the same few platforms,
     and testing every obstacle per region cost more than everything else in those stages
-    together. The per-view flags of ``flags`` are worked out cell by cell as solves need them.
+    together. The per-view flags of ``flags`` are worked out as solves need them: cell by cell
+    on a room's floor, all at once on rasters of at most ALL_AT_ONCE_CELLS.
     """
 
     def __init__(self, v: ViewFacts, support: int, polygon: np.ndarray, z: float) -> None:
@@ -546,7 +548,7 @@ def _clearance(v: ViewFacts, support: int) -> np.ndarray:
     boxes = cached_boxes(v)
     own = box_of(boxes, support)
     others = any(b is not None for i, b in enumerate(boxes) if i != support)
-    if support < 0 or own is None or not others:  # no shortcut: the whole frame as it always was
+    if support < 0 or own is None or not others:  # every object's pixels but the platform's
         return _far_from_objects(v, boxes, support, radius)
     # An object platform's mask differs from every object's (the TABLE mask) only within the
     # clearance radius of the platform's own pixels: there the transform of the other objects'
@@ -614,6 +616,8 @@ def _far_from(pixels: np.ndarray, radius_px: float, at: tuple[int, int] = (0, 0)
     # Pixels beyond the radius from the box around every True pixel are far; inside the box
     # grown by it, the transform of that window alone is exact, since it holds every True pixel.
     rows, cols = np.flatnonzero(pixels.any(1)), np.flatnonzero(pixels.any(0))
+    if len(rows) == 0:
+        raise ValueError("_far_from: a window must hold at least one True pixel")
     reach = math.isqrt(n) + 1
     r0, r1 = max(rows[0] + at[0] - reach, 0), min(rows[-1] + at[0] + reach + 1, shape[0])
     c0, c1 = max(cols[0] + at[1] - reach, 0), min(cols[-1] + at[1] + reach + 1, shape[1])
@@ -700,10 +704,11 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
 
 
 def _cell_index(coordinate: np.ndarray, first: int) -> np.ndarray:
-    """floor(coordinate / CELL_M) - first as integers, with one temporary."""
+    """floor(coordinate / CELL_M) - first as int64 (``_image_mask`` reads them unsigned), with one
+    temporary."""
     out = coordinate / CELL_M
     np.floor(out, out=out)
-    index = out.astype(int)
+    index = out.astype(np.int64)
     index -= first
     return index
 

@@ -274,8 +274,9 @@ def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> li
     rows, first, last, mesh = rows[ok], first[ok].astype(np.int64), last[ok].astype(np.int64), mesh[owner[ok]]
     if len(rows) == 0:
         return counts
-    # Each set's marks go on the box its spans cover, the boxes laid end to end in one array;
-    # spans come grouped by set, in the sets' order.
+    # Each set's marks go on the box its spans cover, the boxes laid end to end in one array
+    # (a view's objects' boxes hold a few million cells at most at 960x540); spans come grouped by
+    # set, in the sets' order.
     starts = np.flatnonzero(np.r_[True, mesh[1:] != mesh[:-1]])
     drawn = mesh[starts]
     top, left = np.minimum.reduceat(rows, starts), np.minimum.reduceat(first, starts)
