@@ -89,10 +89,17 @@ def _edge_normals(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def half_planes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(outward unit normals (K, 2), offsets (K,)) of a convex polygon's edges: a point p is
-    inside where p @ normal - offset <= 0 for every edge. Kept by callers that test one polygon
-    often (``inside_half_planes``)."""
+    inside where p @ normal - offset <= 0 for every edge (``inside_half_planes``). Shared by
+    the polygon's bytes: an object's outline is tested again and again, by the free-space
+    rasters, the answer snaps and the vertical predicates of every pair."""
+    return shared(_key("half_planes", poly), lambda: _half_planes(poly))
+
+
+def _half_planes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     poly, normals = _edge_normals(poly)
-    return normals, np.einsum("ij,ij->i", poly, normals)
+    offsets = np.einsum("ij,ij->i", poly, normals)
+    normals.flags.writeable = offsets.flags.writeable = False
+    return normals, offsets
 
 
 def inside_convex(points: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np.ndarray:
