@@ -1,4 +1,5 @@
-"""Hand-built view facts: scenes whose every relation is known by construction.
+"""Hand-built view facts: scenes whose every relation is known by construction (and, for tests
+that need real renders, ``rendered_scenes``).
 
 The camera stands 1 m in front of the origin (at y = -1), 0.5 m up, looking along
 world +y and pitched down; so "right" is +x, "front" is small y, and objects
@@ -51,3 +52,21 @@ def view(*objects: ObjectFacts, contacts=(), T_world_cam: np.ndarray = T) -> Vie
     right, forward = (np.r_[T_world_cam[:2, k], 0.0] / np.linalg.norm(T_world_cam[:2, k]) for k in (0, 2))
     return ViewFacts(tuple(objects), right, forward, seg,
                      np.ones(SHAPE, dtype=np.float32), K, T_world_cam, (1.2, 0.8), 0.0, contacts=frozenset(contacts))
+
+
+def rendered_scenes(recipe, catalogue, count: int, seeds: int = 40) -> list:
+    """(scene, its rendered views) of the first ``count`` seeds whose scenes compose and settle."""
+    from refspatial.compose import SceneRejected
+    from refspatial.pipeline import build_scene
+    from refspatial.render import render_views
+
+    out = []
+    for seed in range(seeds):
+        try:
+            scene = build_scene(recipe, catalogue, seed)
+        except SceneRejected:
+            continue
+        out.append((scene, render_views(scene, catalogue.materials)))
+        if len(out) == count:
+            return out
+    raise AssertionError(f"fewer than {count} usable scenes in {seeds} seeds")

@@ -3,28 +3,18 @@
 import numpy as np
 import pytest
 
-from refspatial.compose import SceneRejected
-from refspatial.pipeline import build_scene
 from refspatial.relations import TABLE, view_facts
 from refspatial.relations.free_space import (
     ANSWER_ROOM_M, CLEARANCE_M, DIRECTIONS, IMAGE_CLEARANCE, MIN_FREE_AREA_M2, OCCLUSION_M, Constraint, _sector, direction_axis, solve,
 )
 from refspatial.relations.geometry import grown_box, inside_convex, project
-from refspatial.render import render_views
+
+from helpers import rendered_scenes
 
 
 @pytest.fixture(scope="module")
 def views(tiny, catalogue):
-    out = []
-    for seed in range(40):
-        try:
-            scene = build_scene(tiny, catalogue, seed)
-        except SceneRejected:
-            continue
-        out.append(view_facts(scene, render_views(scene, catalogue.materials)[0]))
-        if len(out) == 3:
-            return out
-    raise AssertionError("too few usable scenes")
+    return [view_facts(scene, views[0]) for scene, views in rendered_scenes(tiny, catalogue, 3)]
 
 
 def _check(v, answer, constraints):

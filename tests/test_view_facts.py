@@ -3,26 +3,16 @@
 import numpy as np
 import pytest
 
-from refspatial.compose import SceneRejected
-from refspatial.pipeline import build_scene
 from refspatial.relations import view_facts
 from refspatial.relations.geometry import covered_pixels, project
-from refspatial.render import render_views
+
+from helpers import rendered_scenes
 
 
 @pytest.fixture(scope="module")
 def rendered(tiny, catalogue):
-    out = []
-    for seed in range(40):
-        try:
-            scene = build_scene(tiny, catalogue, seed)
-        except SceneRejected:
-            continue
-        for view in render_views(scene, catalogue.materials):
-            out.append((scene, view, view_facts(scene, view)))
-        if len(out) >= 4:
-            return out
-    raise AssertionError("too few usable scenes")
+    return [(scene, view, view_facts(scene, view)) for scene, views in rendered_scenes(tiny, catalogue, 2)
+            for view in views]
 
 
 def test_each_object_s_visible_share_is_its_pixels_over_its_own_silhouette(rendered):
