@@ -49,10 +49,10 @@ def main() -> None:
     args = parser.parse_args()
     cores = sorted(os.sched_getaffinity(0))
     if len(cores) < 2:
-        sys.exit("ab_pair.py needs two cores: it runs both checkouts at once")
+        parser.error("needs two cores: it runs both checkouts at once")
     for tree in (args.before, args.after):
         if not (tree / "benchmarks" / "cpu_profile.py").is_file():
-            sys.exit(f"{tree} is not a refspatial checkout (no benchmarks/cpu_profile.py); give two checkouts")
+            parser.error(f"{tree} is not a refspatial checkout (no benchmarks/cpu_profile.py); give two checkouts")
     rounds = []
     with ThreadPoolExecutor(2) as pool:
         for before_core, after_core in ((cores[0], cores[1]), (cores[1], cores[0])):

@@ -171,11 +171,12 @@ def texture_bank(looks: Looks, categories: dict, colors: dict[str, tuple[float, 
     for names in looks.surfaces.values():
         for look in (looks.looks[k] for k in names):
             surfaces.update((look, rgb, seed) for rgb in look.colors for seed in range(PATTERN_SEEDS))
-    for look, rgb, seed in sorted(wanted | surfaces, key=lambda w: (w[0].name, w[1], w[2])):
+    every = wanted | surfaces
+    for look, rgb, seed in sorted(every, key=lambda w: (w[0].name, w[1], w[2])):
         textures.make(look.generator, look.params, rgb, seed, look.size)
         if (look, rgb, seed) in surfaces:  # a room surface's mean colour is memoised beside its image
             _texture_mean(look.generator, look.params, rgb, seed, look.size)
-    return len(wanted | surfaces)
+    return len(every)
 
 
 # ---------------------------------------------------------------- room surfaces

@@ -4,20 +4,15 @@ import numpy as np
 import pytest
 
 from refspatial.camera import _object_corners, project
-from refspatial.compose import SceneRejected
-from refspatial.pipeline import build_scene
 from refspatial.render import PHASES, gl_info, render_views
+
+from helpers import rendered_scenes
 
 
 @pytest.fixture(scope="module")
 def rendered(tiny, catalogue):
-    for seed in range(20):
-        try:
-            scene = build_scene(tiny, catalogue, seed)
-        except SceneRejected:
-            continue
-        return scene, render_views(scene, catalogue.materials)[0]
-    raise AssertionError("no usable scene in 20 seeds")
+    scene, views = rendered_scenes(tiny, catalogue, 1, seeds=20)[0]
+    return scene, views[0]
 
 
 def test_camera_follows_the_recipe(rendered, tiny):

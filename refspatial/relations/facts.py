@@ -361,16 +361,17 @@ def _silhouettes_px(objects: list[tuple[PlacedObject, PosedShape]], view: View) 
     together."""
     h, w = view.seg.shape
     K, T = view.K, view.T_world_cam  # worked out by the camera at each ask
-    out, drawn = [], []
-    for obj, shape in objects:
+    # An object crossing the camera plane cannot be occluded meaningfully: the whole frame.
+    out = [int(view.seg.size)] * len(objects)
+    drawn, at = [], []
+    for k, (obj, shape) in enumerate(objects):
         uv, z = project(shape.verts, K, T)
-        if np.any(z <= 0.01):
-            out.append(int(view.seg.size))  # crosses the camera plane: cannot be occluded meaningfully
-        else:
-            out.append(None)
+        if not np.any(z <= 0.01):
             drawn.append(uv[obj.asset.visual.faces])
-    counts = iter(covered_pixels_each(drawn, w, h))
-    return [next(counts) if n is None else n for n in out]
+            at.append(k)
+    for k, count in zip(at, covered_pixels_each(drawn, w, h)):
+        out[k] = count
+    return out
 
 
 def _with_supports(objects: list[ObjectFacts], fixed: dict[int, float], table_size: np.ndarray) -> list[ObjectFacts]:

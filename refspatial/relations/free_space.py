@@ -441,9 +441,8 @@ class _Raster:
     def flags(self, v: ViewFacts, cells: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Bool rasters (seen, cleared, roomy), known at least at ``cells`` ((rows, columns) of
         free cells of this raster) in view ``v``, the raster's own: a cell's centre at the
-        platform's height is unoccluded in the picture,
-        falls on a pixel ``image_clearance`` keeps, and lies ANSWER_ROOM_M clear of every
-        obstacle's ground outline. Each is a property of the cell alone, worked out once, when a
+        platform's height is unoccluded in the picture, falls on a pixel ``image_clearance``
+        keeps, and lies ANSWER_ROOM_M clear of every obstacle's ground outline. Each is a property of the cell alone, worked out once, when a
         solve first looks at the cell: the four directions from every anchor and every question
         after them meet the same cells, and a room's floor holds half a million of them, most
         never looked at (testing all of them took 0.3 s a view). Only the cells in a solve's

@@ -291,8 +291,8 @@ def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> li
     stride = np.maximum.reduceat(last, starts) - left + 2
     size = h * stride
     offset = np.cumsum(size) - size
-    k = np.repeat(np.arange(len(drawn)), np.diff(np.r_[starts, len(rows)]))
-    at = offset[k] + (rows - top[k]) * stride[k] - left[k]
+    box = np.repeat(np.arange(len(drawn)), np.diff(np.r_[starts, len(rows)]))  # each span's box
+    at = offset[box] + (rows - top[box]) * stride[box] - left[box]
     total = int(size.sum())
     marks = np.bincount(at + first, minlength=total) - np.bincount(at + last + 1, minlength=total)
     # Every row's marks sum to zero, so one running sum over all the boxes is each row's own.
