@@ -22,6 +22,7 @@ from ..colour_words import reads_as
 from .balance import PREDICATE_WEIGHTS, weighted_index
 
 from ..relations import PREDICATES, ObjectFacts, ViewFacts
+from ..relations.directional import between_candidates
 from .program import ORDINAL_AXES, Node, ProgramError, answers_to, execute, is_degenerate
 from .sides import SIDE_PREDICATES, side_visible
 
@@ -321,7 +322,7 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, head: int, kind: str, ph
             weak = _phrasebook().rule_out_others
             ids = [i for i in range(head.bit_length()) if head >> i & 1]
             for rel in _parts(view, target, kind, phrased, rng):
-                kept, undecided = _kept(view, rel, ids)
+                kept, undecided = _kept(view, rel, head, ids)
                 named = _named_objects((rel,))
                 if not kept >> target.object_id & 1 or (rel.predicate in weak and not head & ~named & ~kept):
                     continue  # misses the target, or a weak relation that only leaves out its anchor
@@ -511,8 +512,16 @@ def _named_objects(relations: tuple[Relation, ...]) -> int:
     return mask
 
 
-def _kept(view: ViewFacts, rel: Relation, ids: list[int]) -> tuple[int, int]:
-    anchors = [a.object_id for a in rel.anchors]
+def _kept(view: ViewFacts, rel: Relation, head: int, ids: list[int]) -> tuple[int, int]:
+    """The head's candidates (``ids``, the set bits of ``head``) the relation keeps, and those it
+    cannot decide, as bit masks (memoised per view: every target under the same head meets the
+    same relation to the same anchor again, half of all calls)."""
+    anchors = tuple(a.object_id for a in rel.anchors)
+    key = ("kept", rel.predicate, anchors, rel.reverse, head)
+    try:
+        return view.cache[key]
+    except KeyError:
+        pass
     anchor_facts = [view.objects[k] for k in anchors]
     pred = PREDICATES[rel.predicate]
     kept = undecided = 0
@@ -525,6 +534,7 @@ def _kept(view: ViewFacts, rel: Relation, ids: list[int]) -> tuple[int, int]:
             undecided |= 1 << i
         elif verdict:
             kept |= 1 << i
+    view.cache[key] = kept, undecided
     return kept, undecided
 
 
@@ -564,15 +574,30 @@ def _between_chain_parts(view: ViewFacts, target: ObjectFacts, simple: dict[int,
     """Between two anchors, the second picked by a relation of its own: "between the plate and the
     bowl behind the mug" (five steps: three objects, two phrases). The chained anchor comes last,
     so its phrase can only be read as its own."""
+    maybe = _between_maybe(view, target)
     out = []
     for plain, chain in ((b, c) for b in sorted(simple) for c in sorted(chained) if b != c):
-        if (_named_objects(chained[chain].relations) >> plain & 1) == 0 and _holds(
-                view, "between", [target, view.objects[plain], view.objects[chain]]):
+        if ((plain, chain) in maybe and (_named_objects(chained[chain].relations) >> plain & 1) == 0
+                and _holds(view, "between", [target, view.objects[plain], view.objects[chain]])):
             out.append(Relation("between", (simple[plain], chained[chain])))
     return out
 
 
 def _between_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref]) -> list[Relation]:
     ids = sorted(anchors)
+    maybe = _between_maybe(view, target)
     return [Relation("between", (anchors[b], anchors[c])) for i, b in enumerate(ids) for c in ids[i + 1:]
-            if _holds(view, "between", [target, view.objects[b], view.objects[c]])]
+            if (b, c) in maybe and _holds(view, "between", [target, view.objects[b], view.objects[c]])]
+
+
+def _between_maybe(view: ViewFacts, target: ObjectFacts) -> frozenset[tuple[int, int]]:
+    """The anchor pairs (both orders) the target may lie between by the plan-view test of
+    ``between_candidates`` (a superset of the pairs it lies between): the full test of the
+    others, a tenth of the question stage's verdicts, could only say no (memoised per view)."""
+    key = ("between_maybe",)
+    if key not in view.cache:
+        pairs: dict[int, set[tuple[int, int]]] = {}
+        for a, b, c in between_candidates(view, view.objects):
+            pairs.setdefault(a, set()).update(((b, c), (c, b)))
+        view.cache[key] = {a: frozenset(p) for a, p in pairs.items()}
+    return view.cache[key].get(target.object_id, frozenset())
