@@ -11,7 +11,6 @@ from __future__ import annotations
 import io
 import os
 import struct
-import zlib
 from dataclasses import dataclass
 from typing import BinaryIO
 
@@ -21,6 +20,7 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, ChunkIndex, Message, Metadata, MetadataIndex, Statistics
 from mcap.stream_reader import StreamReader, breakup_chunk
 
+from .crc import crc32
 from .record_schemas import JSON_SCHEMAS, PROTO_TOPICS
 
 NS_PER_RECORD = 1_000_000_000  # record i is logged at (i + 1) s
@@ -58,7 +58,7 @@ def read_index(f: BinaryIO) -> ShardIndex:
         raise ValueError("bad MCAP footer (truncated or damaged)")
     f.seek(start)
     summary = f.read(size - len(MAGIC) - _FOOTER_LEN - start)
-    if zlib.crc32(tail[:25], zlib.crc32(summary)) != crc:
+    if crc32(tail[:25], crc32(summary)) != crc:
         raise ValueError("summary CRC mismatch (damaged index)")
     stream = StreamReader(io.BytesIO(summary + tail), skip_magic=True, record_size_limit=size)
     return _index_from_summary(size, start, list(stream.records))
@@ -120,6 +120,6 @@ def verify_data_crc(f: BinaryIO, summary_start: int) -> None:
     crc, left = 0, data_end
     while left:
         block = f.read(min(left, 1 << 22))
-        crc, left = zlib.crc32(block, crc), left - len(block)
+        crc, left = crc32(block, crc), left - len(block)
     if crc != expected:
         raise ValueError("data section CRC mismatch (damaged bytes)")
