@@ -1,5 +1,7 @@
 """The free-space solver on real renders: points on the support, clear of obstacles, visible, in region."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -215,6 +217,21 @@ def test_far_from_equals_scipy_distance_transform(radius):
         assert np.array_equal(_far_from(window, radius, at=(r0, c0), shape=pixels.shape), expected)
     empty = np.zeros((20, 30), dtype=bool)
     assert np.array_equal(_far_from(empty, radius), distance_transform_edt(~empty) >= radius)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 26, 369, 370, 1601])
+def test_disk_rectangles_make_up_the_disk_and_each_is_needed(n):
+    """The clearance's dilation: the union of its rectangles is every offset within squared
+    distance n - 1, and dropping any one of them loses some offset."""
+    from refspatial.relations.free_space import _disk_rectangles
+
+    r = math.isqrt(n - 1) + 1
+    dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+    rects = _disk_rectangles(n)
+    cover = [(np.abs(dx) <= w) & (np.abs(dy) <= h) for w, h in rects]
+    assert np.array_equal(np.logical_or.reduce(cover), dx * dx + dy * dy <= n - 1)
+    for k in range(len(cover)):
+        assert not np.array_equal(np.logical_or.reduce(cover[:k] + cover[k + 1:]), np.logical_or.reduce(cover))
 
 
 def test_image_clearance_is_the_whole_frame_s_distance_transform(views):

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -599,9 +600,9 @@ def _far_square(radius_px: float) -> int:
 def _far_from(pixels: np.ndarray, radius_px: float, at: tuple[int, int] = (0, 0),
               shape: tuple[int, int] | None = None) -> np.ndarray:
     """Bool (H, W): the exact Euclidean distance to the nearest True pixel is at least radius_px,
-    as ``distance_transform_edt(~pixels) >= radius_px``. OpenCV's exact transform takes a third
-    of scipy's time; its float32 distances are compared with a threshold halfway between the two
-    nearest possible distances (square roots of whole numbers) so rounding never flips a pixel.
+    as ``distance_transform_edt(~pixels) >= radius_px``: no True pixel lies within squared
+    distance n - 1 (n the smallest whole squared distance that is far enough), worked out as a
+    dilation by that disk of pixels (``_near``), in whole numbers, so no rounding can flip a pixel.
 
     ``pixels`` may be a window, at (row, column) ``at`` of a frame of ``shape``, holding every True
     pixel of the frame (at least one); the answer is then the whole frame's."""
@@ -624,10 +625,41 @@ def _far_from(pixels: np.ndarray, radius_px: float, at: tuple[int, int] = (0, 0)
     a0, a1 = max(r0, at[0]), min(r1, at[0] + pixels.shape[0])
     b0, b1 = max(c0, at[1]), min(c1, at[1] + pixels.shape[1])
     window[a0 - r0:a1 - r0, b0 - c0:b1 - c0] = pixels[a0 - at[0]:a1 - at[0], b0 - at[1]:b1 - at[1]]
-    d = cv2.distanceTransform((~window).view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     far = np.ones(shape, bool)
-    far[r0:r1, c0:c1] = d >= (math.sqrt(n - 1) + math.sqrt(n)) / 2
+    np.logical_not(_near(window, n), out=far[r0:r1, c0:c1])
     return far
+
+
+def _near(pixels: np.ndarray, n: int) -> np.ndarray:
+    """Bool: some True pixel lies within squared distance n - 1 (pixels off the image are not True).
+
+    The disk of pixel offsets dx^2 + dy^2 <= n - 1 is the union of the rectangles at the corners
+    of its staircase outline (12 for the clearance's 19.2 px), so the mask is the union of as many
+    rectangular dilations, each separable into a row and a column pass: 0.65 of OpenCV's exact
+    distance transform's time on the clearance windows, and exact by construction."""
+    src = pixels.view(np.uint8)
+    first, *rest = (_dilated(src, half_w, half_h) for half_w, half_h in _disk_rectangles(n))
+    for grown in rest:
+        np.bitwise_or(first, grown, out=first)
+    return first.view(bool)
+
+
+def _dilated(src: np.ndarray, half_w: int, half_h: int) -> np.ndarray:
+    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (2 * half_w + 1, 2 * half_h + 1))
+    return cv2.dilate(src, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+
+
+@lru_cache(maxsize=8)
+def _disk_rectangles(n: int) -> tuple[tuple[int, int], ...]:
+    """(half width, half height) of the fewest centred rectangles whose union is the disk
+    dx^2 + dy^2 <= n - 1 (n >= 1): one per step of its outline, from the tallest to the widest."""
+    top = math.isqrt(n - 1)
+    out: list[tuple[int, int]] = []
+    for dy in range(top, -1, -1):
+        half_w = math.isqrt(n - 1 - dy * dy)
+        if not out or half_w > out[-1][0]:
+            out.append((half_w, dy))
+    return tuple(out)
 
 
 def _cleared(clear: np.ndarray, uv: np.ndarray) -> np.ndarray:
