@@ -311,6 +311,25 @@ def test_pixel_stats_equal_the_gathered_pixels_statistics():
         assert stats.depth_m == float(np.median(depth[rows, cols]))
 
 
+def test_object_boxes_equal_find_objects_over_the_whole_frame():
+    """The boxes found inside the box around every object are the whole frame's, ids missing
+    from the frame, objects at its edges and a frame with no object included."""
+    from scipy import ndimage
+
+    from refspatial.relations.masks import object_boxes
+
+    rng = np.random.default_rng(11)
+    for trial in range(40):
+        seg = np.full((50, 70), -1, dtype=np.int32)
+        for k in rng.choice(9, size=int(rng.integers(0, 6)), replace=False):
+            r, c = rng.integers(0, 50), rng.integers(0, 70)
+            seg[r:r + rng.integers(1, 20), c:c + rng.integers(1, 20)] = k
+        if trial % 5 == 0:
+            seg[0, int(rng.integers(0, 70))] = 3
+            seg[int(rng.integers(0, 50)), -1] = 8
+        assert object_boxes(seg) == ndimage.find_objects(seg + 1), trial
+
+
 def _clip_edge_by_edge(subject: np.ndarray, clipper: np.ndarray) -> np.ndarray:
     """Sutherland-Hodgman written out corner by corner: what clip_convex must equal exactly."""
     from refspatial.relations.geometry import ccw

@@ -20,8 +20,17 @@ Box = tuple[slice, slice]
 
 
 def object_boxes(seg: np.ndarray) -> list[Box | None]:
-    """Index = object id: the (rows, cols) slices bounding its pixels, or None if it has none."""
-    return ndimage.find_objects(seg + 1)  # label id + 1; the background (-1) becomes 0, unlabelled
+    """Index = object id: the (rows, cols) slices bounding its pixels, or None if it has none.
+
+    ``find_objects`` scans only the box around every object's pixels (a third of a tabletop
+    frame; the rest is table, floor and wall), found by OpenCV in one pass."""
+    x, y, w, h = cv2.boundingRect((seg >= 0).view(np.uint8))
+    if w == 0:
+        return []
+    # Label id + 1: the background (-1) becomes 0, unlabelled.
+    boxes = ndimage.find_objects(seg[y:y + h, x:x + w] + 1)
+    return [None if b is None else (slice(b[0].start + y, b[0].stop + y), slice(b[1].start + x, b[1].stop + x))
+            for b in boxes]
 
 
 BOXES_KEY = ("boxes",)  # where a ViewFacts' cache keeps its segmentation's object boxes
