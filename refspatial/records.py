@@ -70,7 +70,7 @@ class _ChunkZstd:
 
 class _WriterCrc:
     """What mcap's writer calls for its checksums (``zlib.crc32``, the only zlib function it uses):
-    the same CRC-32, quicker (``crc``)."""
+    the same CRC-32, quicker (``refspatial.crc``)."""
 
     crc32 = staticmethod(crc32)
 

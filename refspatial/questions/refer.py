@@ -592,8 +592,9 @@ def _between_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref]
 
 def _between_maybe(view: ViewFacts, target: ObjectFacts) -> frozenset[tuple[int, int]]:
     """The anchor pairs (both orders) the target may lie between by the plan-view test of
-    ``between_candidates`` (a superset of the pairs it lies between): the full test of the
-    others, a tenth of the question stage's verdicts, could only say no (memoised per view)."""
+    ``between_candidates`` (a superset of the pairs it lies between; memoised per view). The
+    full test of any other pair could only say no, and those tests were a tenth of the question
+    stage's verdicts."""
     key = ("between_maybe",)
     if key not in view.cache:
         pairs: dict[int, set[tuple[int, int]]] = {}
