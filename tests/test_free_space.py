@@ -194,8 +194,8 @@ def test_grown_regions_hold_every_point_near_the_region(views):
 
 @pytest.mark.parametrize("radius", [0.5, 1.0, 2 ** 0.5, 5.0, 19.2, 40.0])
 def test_far_from_equals_scipy_distance_transform(radius):
-    """The clearance mask (rectangular dilations of a window) is scipy's whole-image transform to the pixel,
-    whole-number radii and objects at the image's corners included."""
+    """The clearance mask (rectangular dilations of a window) is scipy's whole-image transform to
+    the pixel, whole-number radii and objects at the image's corners included."""
     from scipy.ndimage import distance_transform_edt
 
     from refspatial.relations.free_space import _far_from
