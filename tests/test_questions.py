@@ -322,6 +322,25 @@ def test_families_on_a_hand_built_view():
             assert q["images"] == ["k0", "k"]
 
 
+def test_no_object_is_asked_for_twice_by_the_same_relations():
+    """Pointing at, naming or boxing one object by the same relations to the same anchors (and the
+    same ordinals) is one question however it is worded; a view asks it once (annotator read 41:
+    "the basket" and "the brown basket" with one basket seen)."""
+    other = view(*MUGS.objects)
+    for seed in range(4):
+        asked = set()
+        for q in questions_for_view(MUGS, {**SPEC, "per_view": 40}, np.random.default_rng(seed), "k", ("k0", other)):
+            if q["family"] not in ("location", "identify", "visual_choice"):
+                continue
+            steps = q["steps"]
+            relations = sorted((n["predicate"], bool(n.get("reverse")), [steps[i]["result"] for i in n["inputs"][1:]])
+                               for n in steps if n["op"] == "relate")
+            ordinals = sorted((n["axis"], n["end"], n["rank"]) for n in steps if n["op"] == "ordinal")
+            key = repr((q["target_id"], relations, ordinals))
+            assert key not in asked, (seed, q["question"])
+            asked.add(key)
+
+
 def test_placement_shapes_add_up_to_their_step_count():
     from refspatial.questions.placement import ANCHORS, SHAPES
 
