@@ -341,6 +341,31 @@ def test_no_object_is_asked_for_twice_by_the_same_relations():
             asked.add(key)
 
 
+@pytest.mark.parametrize("steps", [1, 2, 3, 4, 5])
+def test_a_description_s_key_is_its_program_s(steps):
+    """The key the search passes asked descriptions over by (read from the description) is the
+    one the driver reads from the question's stored steps."""
+    from refspatial.questions.program import with_results
+    from refspatial.questions.refer import object_key, ref_key
+
+    rng = np.random.default_rng(steps)
+    keys = 0
+    for target in MUGS.objects:
+        refs = anchored_refs(MUGS, target, steps, rng, Phrasebook.get().phrased, wanted=4)
+        refs += anchored_refs(MUGS, target, steps, rng, Phrasebook.get().phrased, any_category=True, wanted=4)
+        refs += simple_refs(MUGS, target) if steps == 1 else []
+        for ref in refs:
+            program: list = []
+            compile_ref(ref, program)
+            nodes = with_results(program, execute(program, MUGS))
+            relations = [(n["predicate"], bool(n.get("reverse")), tuple(nodes[i]["result"] for i in n["inputs"][1:]))
+                         for n in nodes if n["op"] == "relate"]
+            ordinals = [(n["axis"], n["end"], n["rank"]) for n in nodes if n["op"] == "ordinal"]
+            assert ref_key(ref) == object_key(nodes[-1]["result"], relations, ordinals), ref
+            keys += 1
+    assert keys > 0
+
+
 def test_placement_shapes_add_up_to_their_step_count():
     from refspatial.questions.placement import ANCHORS, SHAPES
 

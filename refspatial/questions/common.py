@@ -18,6 +18,15 @@ QA = dict[str, Any]
 POINT_TRIES = 20
 ORIENTATION_PREDICATES = ("on_facing_side", "on_back_side")
 TARGET_WEIGHTS_KEY = ("target_weights",)  # where a view's cache keeps target_order's weights
+# Where a view's cache keeps the ``object_key`` of every one-object question its record has asked
+# so far (``questions_for_view`` starts it afresh): a description already asked is passed over
+# before a question is built around it.
+ASKED_KEY = ("asked_objects",)
+
+
+def asked(view: ViewFacts) -> set[str]:
+    """The object keys this view's record has asked so far (none outside ``questions_for_view``)."""
+    return view.cache.get(ASKED_KEY, set())
 SIZE_MEASURES = {"taller_than": "height", "shorter_than": "height", "wider_than": "width",
                  "thinner_than": "width", "bigger_than": "size", "smaller_than": "size"}
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ObjectFacts, ViewFacts
-from .common import QA, make_qa, point_qa, target_order
+from .common import QA, asked, make_qa, point_qa, target_order
 from .phrases import Phrasebook
 from .program import Node, execute
-from .refer import Ref, anchored_refs, compile_ref, simple_refs
+from .refer import Ref, anchored_refs, compile_ref, ref_key, simple_refs
 
 
 LONG_CHAIN = 3  # from this many steps on, a description may fall back to "the object ..."
@@ -32,22 +32,23 @@ def describe_target(view: ViewFacts, target, steps: int, rng: np.random.Generato
     return refs[int(rng.integers(len(refs)))] if refs else None
 
 
-def first_described(view: ViewFacts, steps: int, rng: np.random.Generator,
-                    any_category: bool = False) -> tuple[ObjectFacts, Ref] | None:
+def first_described(view: ViewFacts, steps: int, rng: np.random.Generator, any_category: bool = False,
+                    skip: set[str] | frozenset[str] = frozenset()) -> tuple[ObjectFacts, Ref] | None:
     """(target, description) for the first object in ``target_order`` that has a description of
-    ``steps`` steps (descriptions that do not fit are remembered per view, so trying every object
-    costs each search once)."""
+    ``steps`` steps whose ``ref_key`` is not in ``skip`` (descriptions that do not fit are
+    remembered per view, so trying every object costs each search once)."""
     for target in target_order(view, rng):
         ref = describe_target(view, target, steps, rng, any_category)
-        if ref is not None:
+        if ref is not None and (not skip or ref_key(ref) not in skip):
             return target, ref
     return None
 
 
 def described_target(views: dict[str, ViewFacts], steps: int, rng: np.random.Generator, where: str = "self"):
-    """(target, its description's words, the program resolving it) in view ``where``, or None."""
+    """(target, its description's words, the program resolving it) in view ``where``, or None.
+    In the record's own view, a description its record has asked already is passed over."""
     view = views[where]
-    found = first_described(view, steps, rng)
+    found = first_described(view, steps, rng, skip=asked(view) if where == "self" else frozenset())
     if found is None:
         return None
     target, ref = found
@@ -70,7 +71,7 @@ def location(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random
 def identify(views: dict[str, ViewFacts], spec: dict, steps: int, rng: np.random.Generator) -> QA | None:
     """Which object satisfies these relations? Answered with its name, or by pointing."""
     view = views["self"]
-    found = first_described(view, steps, rng, any_category=True)
+    found = first_described(view, steps, rng, any_category=True, skip=asked(view))
     if found is None:
         return None
     target, ref = found

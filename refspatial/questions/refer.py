@@ -89,6 +89,29 @@ def _relation_steps(relations: tuple[Relation, ...]) -> int:
     return len(relations) + sum(a.anchor_steps for a in anchors)
 
 
+def object_key(target: int, relations, ordinals) -> str:
+    """What a question about one object asks, wording aside: the object, the relations of its
+    description as (predicate, reversed, anchor object ids), chained anchors' included, and the
+    ordinals (axis, end, rank). Colour and category words do not count: "the basket" and "the
+    brown basket" with one basket seen ask the same."""
+    return repr((int(target), sorted(set(relations)), sorted(set(ordinals))))
+
+
+def ref_key(ref: Ref) -> str:
+    """``object_key`` of a description, read from the description itself (before any program
+    runs; the program's own steps give the same key)."""
+    relations, ordinals = set(), set()
+    todo = [ref]
+    while todo:
+        r = todo.pop()
+        if r.ordinal is not None:
+            ordinals.add((r.ordinal.axis, r.ordinal.end, r.ordinal.rank))
+        for rel in r.relations:
+            relations.add((rel.predicate, bool(rel.reverse), tuple(a.object_id for a in rel.anchors)))
+            todo.extend(rel.anchors)
+    return object_key(ref.object_id, relations, ordinals)
+
+
 def compile_ref(ref: Ref, program: list[Node], texts: dict[Ref, str] | None = None, view: str = "self") -> int:
     """Append the nodes that resolve ``ref``; returns the index of its ``unique`` node.
 
