@@ -25,7 +25,8 @@ ASKED_KEY = ("asked_objects",)
 
 
 def asked(view: ViewFacts) -> set[str]:
-    """The object keys this view's record has asked so far (none outside ``questions_for_view``)."""
+    """The object keys this view's record has asked so far: those of the latest
+    ``questions_for_view`` on this view (none before the first)."""
     return view.cache.get(ASKED_KEY, set())
 SIZE_MEASURES = {"taller_than": "height", "shorter_than": "height", "wider_than": "width",
                  "thinner_than": "width", "bigger_than": "size", "smaller_than": "size"}
