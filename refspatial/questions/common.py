@@ -22,14 +22,14 @@ TARGET_WEIGHTS_KEY = ("target_weights",)  # where a view's cache keeps target_or
 # so far (``questions_for_view`` starts it afresh): a description already asked is passed over
 # before a question is built around it.
 ASKED_KEY = ("asked_objects",)
+SIZE_MEASURES = {"taller_than": "height", "shorter_than": "height", "wider_than": "width",
+                 "thinner_than": "width", "bigger_than": "size", "smaller_than": "size"}
 
 
 def asked(view: ViewFacts) -> set[str]:
     """The object keys this view's record has asked so far: those of the latest
     ``questions_for_view`` on this view (none before the first)."""
     return view.cache.get(ASKED_KEY, set())
-SIZE_MEASURES = {"taller_than": "height", "shorter_than": "height", "wider_than": "width",
-                 "thinner_than": "width", "bigger_than": "size", "smaller_than": "size"}
 
 
 def weighted(weights: dict, rng: np.random.Generator) -> Any:
