@@ -248,6 +248,19 @@ def test_image_clearance_is_the_whole_frame_s_distance_transform(views):
             assert np.array_equal(image_clearance(v, support), expected), support
 
 
+def test_flat_things_on_a_platform_are_in_the_way_and_things_below_it_are_not():
+    """A fork lying flat (3 mm) takes its place on the table (annotator read 42: a free spot's region
+    held the fork's pixels); a thing standing on a board below the platform is not in its way."""
+    from helpers import obj, view
+
+    from refspatial.relations.free_space import _obstacles
+
+    fork = obj(1, "fork", "silver", 0.1, 0.0, size=0.15, height=0.003)
+    below = obj(2, "cup", "red", -0.1, 0.0, height=0.08, z=-0.1, support=None)
+    v = view(obj(0, "bowl", "white", 0.0, 0.2), fork, below)
+    assert [o.object_id for o in _obstacles(v, TABLE, 0.0)] == [0, 1]
+
+
 def test_no_free_spot_between_a_shelf_s_posts():
     """The posts stand on every board below the highest: the strip at each end between them is not
     free (annotator: a spot wedged between the end posts). The highest board has no posts on it."""
