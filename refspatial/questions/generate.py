@@ -52,20 +52,20 @@ def questions_for_view(view: ViewFacts, spec: dict, rng: np.random.Generator, ke
     views = {"self": view} if other is None else {"self": view, "other": other[1]}
     families = {f: w for f, w in spec["families"].items() if f != "multiview" or other is not None}
     out: list[QA] = []
-    seen: set[str] = set()
-    asked = view.cache[ASKED_KEY] = set()  # the one-object questions so far, for the families' own search
+    programs: set[str] = set()
+    # The one-object questions' keys, kept where the families' own target search reads them.
+    asked = view.cache[ASKED_KEY] = set()
     if not view.askable() or not families:
         return out
     budget = 3 * spec["per_view"]  # family draws, so a view with little to ask still ends
     while len(out) < spec["per_view"] and budget > 0:
         budget -= 1
         family = weighted(families, rng)
-        qa = _draw(views, spec, family, rng, seen)
-        if qa is not None:
-            program, target = _signatures(qa)
-            seen.add(program)
+        drawn = _draw(views, spec, family, rng, programs, asked)
+        if drawn is not None:
+            qa, (program, target) = drawn
+            programs.add(program)
             if target is not None:
-                seen.add(target)
                 asked.add(target)
             if "images" in qa:
                 qa["images"] = [other[0] if v == "other" else key for v in qa["images"]]
@@ -73,15 +73,19 @@ def questions_for_view(view: ViewFacts, spec: dict, rng: np.random.Generator, ke
     return out
 
 
-def _draw(views, spec: dict, family: str, rng: np.random.Generator, seen: set[str]) -> QA | None:
-    """One new question of the family. A failed step count is redrawn but the family is kept:
-    replacing hard families by easy ones on failure would skew the recipe's family mix."""
+def _draw(views, spec: dict, family: str, rng: np.random.Generator, programs: set[str],
+          asked: set[str]) -> tuple[QA, tuple[str, str | None]] | None:
+    """One new question of the family, with its ``_signatures``: neither its program nor its
+    object key asked before. A failed step count is redrawn but the family is kept: replacing
+    hard families by easy ones on failure would skew the recipe's family mix."""
     for _ in range(STEP_REDRAWS):
         steps = int(weighted(spec["steps"], rng))
         for _attempt in range(spec["attempts_per_question"]):
             qa = FAMILIES[family](views, spec, steps, rng)
-            if qa is not None and seen.isdisjoint(s for s in _signatures(qa) if s is not None):
-                return qa
+            if qa is not None:
+                program, target = signatures = _signatures(qa)
+                if program not in programs and target not in asked:
+                    return qa, signatures
     return None
 
 

@@ -343,9 +343,8 @@ def _scored_parts(view: ViewFacts, target: ObjectFacts, head: int, kind: str, ph
             parts = _pairs(head, _scored_parts(view, target, head, "binary", phrased, rng))
         elif head:
             weak = _phrasebook().rule_out_others
-            ids = [i for i in range(head.bit_length()) if head >> i & 1]
             for rel in _parts(view, target, kind, phrased, rng):
-                kept, undecided = _kept(view, rel, head, ids)
+                kept, undecided = _kept(view, rel, head)
                 named = _named_objects((rel,))
                 if not kept >> target.object_id & 1 or (rel.predicate in weak and not head & ~named & ~kept):
                     continue  # misses the target, or a weak relation that only leaves out its anchor
@@ -535,10 +534,10 @@ def _named_objects(relations: tuple[Relation, ...]) -> int:
     return mask
 
 
-def _kept(view: ViewFacts, rel: Relation, head: int, ids: list[int]) -> tuple[int, int]:
-    """The head's candidates (``ids``, the set bits of ``head``) the relation keeps, and those it
-    cannot decide, as bit masks (memoised per view: every target under the same head meets the
-    same relation to the same anchor again, half of all calls)."""
+def _kept(view: ViewFacts, rel: Relation, head: int) -> tuple[int, int]:
+    """The head's candidates (the set bits of ``head``) the relation keeps, and those it cannot
+    decide, as bit masks (memoised per view: every target under the same head meets the same
+    relation to the same anchor again, half of all calls)."""
     anchors = tuple(a.object_id for a in rel.anchors)
     key = ("kept", rel.predicate, anchors, rel.reverse, head)
     try:
@@ -548,8 +547,8 @@ def _kept(view: ViewFacts, rel: Relation, head: int, ids: list[int]) -> tuple[in
     anchor_facts = [view.objects[k] for k in anchors]
     pred = PREDICATES[rel.predicate]
     kept = undecided = 0
-    for i in ids:
-        if i in anchors:
+    for i in range(head.bit_length()):
+        if not head >> i & 1 or i in anchors:
             continue
         o = view.objects[i]
         verdict = pred(view, *anchor_facts, o) if rel.reverse else pred(view, o, *anchor_facts)

@@ -446,11 +446,12 @@ class _Raster:
         """Bool rasters (seen, cleared, roomy), known at least at ``cells`` ((rows, columns) of
         free cells of this raster) in view ``v``, the raster's own: a cell's centre at the
         platform's height is unoccluded in the picture, falls on a pixel ``image_clearance``
-        keeps, and lies ANSWER_ROOM_M clear of every obstacle's ground outline. Each is a property of the cell alone, worked out once, when a
-        solve first looks at the cell: the four directions from every anchor and every question
-        after them meet the same cells, and a room's floor holds half a million of them, most
-        never looked at (testing all of them took 0.3 s a view). Only the cells in a solve's
-        regions are asked, not their box: a sector fills about half of its box.
+        keeps, and lies ANSWER_ROOM_M clear of every obstacle's ground outline. Each is a
+        property of the cell alone, worked out once, when a solve first looks at the cell: the
+        four directions from every anchor and every question after them meet the same cells, and
+        a room's floor holds half a million of them, most never looked at (testing all of them
+        took 0.3 s a view). Only the cells in a solve's regions are asked, not their box: a
+        sector fills about half of its box.
 
         A table top or shelf board holds at most a few ten thousand free cells, and the solves
         of a view look at most of them (two thirds on tabletops): there every free cell is worked
@@ -641,10 +642,11 @@ def _near(pixels: np.ndarray, n: int) -> np.ndarray:
     rectangular dilations, each separable into a row and a column pass: 0.65 of OpenCV's exact
     distance transform's time on the clearance windows, and exact by construction."""
     src = pixels.view(np.uint8)
-    first, *rest = (_dilated(src, half_w, half_h) for half_w, half_h in _disk_rectangles(n))
-    for grown in rest:
-        np.bitwise_or(first, grown, out=first)
-    return first.view(bool)
+    (half_w, half_h), *rest = _disk_rectangles(n)
+    near = _dilated(src, half_w, half_h)
+    for half_w, half_h in rest:  # one dilation held at a time
+        np.bitwise_or(near, _dilated(src, half_w, half_h), out=near)
+    return near.view(bool)
 
 
 def _dilated(src: np.ndarray, half_w: int, half_h: int) -> np.ndarray:
