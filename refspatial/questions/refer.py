@@ -536,26 +536,32 @@ def _named_objects(relations: tuple[Relation, ...]) -> int:
 
 def _kept(view: ViewFacts, rel: Relation, head: int) -> tuple[int, int]:
     """The head's candidates (the set bits of ``head``) the relation keeps, and those it cannot
-    decide, as bit masks (memoised per view: every target under the same head meets the same
-    relation to the same anchor again, half of all calls)."""
-    anchors = tuple(a.object_id for a in rel.anchors)
-    key = ("kept", rel.predicate, anchors, rel.reverse, head)
+    decide, as bit masks: the relation's verdicts on every seen object but its anchors, worked
+    out once per view and relation, then cut to the head (every head under which the search meets
+    a relation to an anchor asks the same verdicts of its own candidates)."""
+    kept, undecided = _verdict_masks(view, rel.predicate, tuple(a.object_id for a in rel.anchors), rel.reverse)
+    return kept & head, undecided & head
+
+
+def _verdict_masks(view: ViewFacts, predicate: str, anchors: tuple[int, ...], reverse: bool) -> tuple[int, int]:
+    """Bit masks of the seen objects (anchors aside) a relation to ``anchors`` keeps, and of those
+    it cannot decide (memoised per view)."""
+    key = ("kept", predicate, anchors, reverse)
     try:
         return view.cache[key]
     except KeyError:
         pass
     anchor_facts = [view.objects[k] for k in anchors]
-    pred = PREDICATES[rel.predicate]
+    pred = PREDICATES[predicate]
     kept = undecided = 0
-    for i in range(head.bit_length()):
-        if not head >> i & 1 or i in anchors:
+    for o in view.objects:
+        if o.status == "hidden" or o.object_id in anchors:
             continue
-        o = view.objects[i]
-        verdict = pred(view, *anchor_facts, o) if rel.reverse else pred(view, o, *anchor_facts)
+        verdict = pred(view, *anchor_facts, o) if reverse else pred(view, o, *anchor_facts)
         if verdict is None:
-            undecided |= 1 << i
+            undecided |= 1 << o.object_id
         elif verdict:
-            kept |= 1 << i
+            kept |= 1 << o.object_id
     view.cache[key] = kept, undecided
     return kept, undecided
 
