@@ -39,6 +39,7 @@ from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import grown_box, half_planes, inside_convex, inside_convex_grid, inside_half_planes, project, shared
 from .masks import box_of, cached_boxes, padded
+from .pixel_loops import plane_cells
 from .registry import predicate
 
 CELL_M = 0.01
@@ -707,57 +708,16 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
     if np.all(depth > 0):
         c0, r0 = np.clip(np.floor(uv.min(0)).astype(int) - 1, 0, [v.width, v.height])
         c1, r1 = np.clip(np.ceil(uv.max(0)).astype(int) + 1, 0, [v.width, v.height])
-    # World direction of each pixel's ray, scaled so that its camera-frame z is 1: s below is
-    # then the optical-axis depth at which it meets the plane, comparable with the depth image.
-    M, t = v.T_world_cam[:3, :3] @ np.linalg.inv(v.K), v.T_world_cam[:3, 3]
-    u, w = np.arange(c0, c1) + 0.5, np.arange(r0, r1) + 0.5
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # rays along the plane, and pixels past it
-        s = (z - t[2]) / (M[2, 0] * u[None, :] + M[2, 1] * w[:, None] + M[2, 2])
-        # Seen: in front of the camera, and the rendered depth within OCCLUSION_M of the plane's
-        # (an infinite or undefined s fails the second test by itself).
-        gap = v.depth_m[r0:r1, c0:c1] - s
-        np.abs(gap, out=gap)
-        ok = (s > 0) & (gap <= OCCLUSION_M)
-        # Plane points and cells of the whole window (most of it is the platform, seen): whole-array
-        # arithmetic costs less than gathering the pixels that are; the others are masked out.
-        x, y = (_on_plane(u, w, s, M[k], t[k]) for k in (0, 1))
-        ix, iy = (_cell_index(c, lo[k]) for k, c in enumerate((x, y)))
-    # Each pixel's cell as an index into the codes laid flat behind one zero code: pixels unseen
-    # or off the codes take that zero. (Read unsigned, a negative index is out of range too.)
-    rows, cols = codes.shape
-    on = ok & (ix.view(np.uint64) < cols) & (iy.view(np.uint64) < rows)
-    iy *= cols
-    iy += ix
-    iy += 1
-    iy *= on
-    flat = np.zeros(codes.size + 1, dtype=codes.dtype)
-    flat[1:] = codes.ravel()
-    code = flat.take(iy)
-    keep, edge = code == WHOLE, code == EDGE
-    keep[edge] = _in_regions(v, constraints, np.column_stack([x[edge], y[edge]]))
+    # World direction of each pixel's ray, scaled so that its camera-frame z is 1: the depth at
+    # which it meets the plane is then comparable with the depth image (``plane_cells``).
+    M, t = v.T_world_cam[:3, :3] @ np.linalg.inv(v.K), np.ascontiguousarray(v.T_world_cam[:3, 3])
+    window, at, x, y = plane_cells(v.depth_m, int(r0), int(c0), int(r1 - r0), int(c1 - c0), M, t, float(z),
+                                   CELL_M, OCCLUSION_M, lo, codes)
+    keep = window == WHOLE
+    edge = window.ravel()[at] == EDGE  # pixels in cells that cross the region's edge: tested one by one
+    keep.ravel()[at[edge]] = _in_regions(v, constraints, np.column_stack([x[edge], y[edge]]))
     mask[r0:r1, c0:c1] = keep
     return mask
-
-
-def _cell_index(coordinate: np.ndarray, first: int) -> np.ndarray:
-    """floor(coordinate / CELL_M) - first as int64 (``_image_mask`` reads them unsigned), with one
-    temporary."""
-    out = coordinate / CELL_M
-    np.floor(out, out=out)
-    index = out.astype(np.int64)
-    index -= first
-    return index
-
-
-def _on_plane(u: np.ndarray, w: np.ndarray, depth: np.ndarray, m: np.ndarray, t: float) -> np.ndarray:
-    """One world coordinate of the rays through pixel columns u and rows w, met at ``depth`` (rows,
-    columns): t + (u * m[0] + w * m[1] + m[2]) * depth, the same operations in the same order, in
-    place."""
-    out = (u * m[0])[None, :] + (w * m[1])[:, None]
-    out += m[2]
-    out *= depth
-    out += t
-    return out
 
 
 WHOLE, EDGE = 1, 2  # cell codes; 0 is a cell that is not free or lies outside the region

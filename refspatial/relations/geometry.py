@@ -234,69 +234,27 @@ def covered_pixels(tris: np.ndarray, width: int, height: int) -> int:
 
 def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> list[int]:
     """``covered_pixels`` of each (F, 3, 2) triangle set, worked out together: a view's objects
-    in one pass of array operations rather than one pass each (the arithmetic is per triangle and
-    per row, so each count is what it would be alone).
+    in one call (the arithmetic is per triangle and per row, so each count is what it would be
+    alone).
 
     For the silhouette of a closed mesh the triangles of one winding suffice (front faces, or
     back faces, each tile it), so only those with positive signed area are drawn. (cv2.fillPoly
     cannot stand in: it fills many polygons with a parity rule, so overlaps cancel.) Each
-    triangle is cut into one span of pixels per row it covers; spans are summed as +1/-1 marks
-    along their rows, and a pixel is covered where the running sum is positive.
+    triangle is cut into one span of pixels per row it covers, and a set's spans are counted
+    once where they overlap (``pixel_loops.union_counts``).
     """
-    counts = [0] * len(meshes)
     if not meshes:
-        return counts
+        return []
+    from .pixel_loops import union_counts  # numba's import is kept off the command line's start
+
     tris = np.concatenate(meshes)
-    mesh = np.repeat(np.arange(len(meshes)), [len(m) for m in meshes])
     a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    tris, mesh = tris[area > 1e-12], mesh[area > 1e-12]
+    drawn = area > 1e-12
+    tris = np.ascontiguousarray(tris[drawn])
+    set_of = np.repeat(np.arange(len(meshes)), [len(m) for m in meshes])[drawn]
+    starts = np.searchsorted(set_of, np.arange(len(meshes) + 1))  # each set's first triangle, then the end
     # Rows whose centre (row + 0.5) lies within each triangle's height, clipped to the image.
     r0 = np.clip(np.ceil(tris[..., 1].min(1) - 0.5), 0, height).astype(np.int64)
     r1 = np.clip(np.floor(tris[..., 1].max(1) - 0.5) + 1, 0, height).astype(np.int64)
-    n = np.maximum(r1 - r0, 0)
-    if n.sum() == 0:
-        return counts
-    owner = np.repeat(np.arange(len(tris)), n)
-    rows = r0[owner] + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
-    y = rows + 0.5
-    lo = np.full(len(rows), -np.inf)
-    hi = np.full(len(rows), np.inf)
-    ok = np.ones(len(rows), dtype=bool)
-    edges = np.roll(tris, -1, axis=1) - tris  # edge k runs from corner k to corner k + 1
-    for k in range(3):  # inside: left of (or on) every edge p -> q of a positively wound triangle
-        px, py = tris[:, k, 0][owner], tris[:, k, 1][owner]
-        dx, dy = edges[:, k, 0][owner], edges[:, k, 1][owner]
-        w = y - py
-        w *= dx
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # near-flat edges cross far away
-            x = w / dy
-        x += px  # where the edge's line crosses this row: px + dx * (y - py) / dy
-        np.minimum(hi, x, out=hi, where=dy > 0)
-        np.maximum(lo, x, out=lo, where=dy < 0)
-        ok &= (dy != 0) | (w >= 0)
-    first = np.maximum(np.ceil(lo - 0.5), 0)
-    last = np.minimum(np.floor(hi - 0.5), width - 1)
-    ok &= last >= first
-    rows, first, last, mesh = rows[ok], first[ok].astype(np.int64), last[ok].astype(np.int64), mesh[owner[ok]]
-    if len(rows) == 0:
-        return counts
-    # Each set's marks go on the box its spans cover, the boxes laid end to end in one array
-    # (a view's objects' boxes hold a few million cells at most at 960x540); spans come grouped by
-    # set, in the sets' order.
-    starts = np.flatnonzero(np.r_[True, mesh[1:] != mesh[:-1]])
-    drawn = mesh[starts]
-    top, left = np.minimum.reduceat(rows, starts), np.minimum.reduceat(first, starts)
-    h = np.maximum.reduceat(rows, starts) - top + 1
-    stride = np.maximum.reduceat(last, starts) - left + 2
-    size = h * stride
-    offset = np.cumsum(size) - size
-    box = np.repeat(np.arange(len(drawn)), np.diff(np.r_[starts, len(rows)]))  # each span's box
-    at = offset[box] + (rows - top[box]) * stride[box] - left[box]
-    total = int(size.sum())
-    marks = np.bincount(at + first, minlength=total) - np.bincount(at + last + 1, minlength=total)
-    # Every row's marks sum to zero, so one running sum over all the boxes is each row's own.
-    covered = np.cumsum(marks) > 0
-    for m, count in zip(drawn.tolist(), np.add.reduceat(covered, offset).tolist()):
-        counts[m] = int(count)
-    return counts
+    return union_counts(tris, r0, r1, starts, width).tolist()

@@ -1,0 +1,120 @@
+"""The relation engine's per-pixel loops, compiled with numba.
+
+Two passes dominated the relation stage's array work: cutting a view's silhouettes (~8,000
+projected triangles) into row spans, and following every pixel of a free-space window down to
+the platform plane. As whole-array numpy steps each cost dozens of passes over temporaries as
+big as the frame's window; as one loop they cost a third to a fifth of that. Each loop does the
+arithmetic numpy did, in the same IEEE operations and order (numba without ``fastmath`` neither
+reorders nor fuses them), so every count, mask and cell is the same bit for bit. Compiled once
+per machine: numba caches the machine code beside this file (or in the user's cache folder when
+the package folder is read-only).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def union_counts(tris: np.ndarray, r0: np.ndarray, r1: np.ndarray, starts: np.ndarray,
+                 width: int) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
+    """Pixels covered by each set of positively wound triangles.
+
+    ``tris`` (F, 3, 2) pixel coordinates, the sets' triangles one set after another from
+    ``starts`` (S + 1 offsets); ``r0``/``r1`` each triangle's first and past-last image row
+    whose centre it may cover. A row's span of a triangle is the pixel centres left of (or on)
+    every edge p -> q: each edge's line crosses the row at px + dx (y - py) / dy, bounding the
+    span from the right where the edge goes down the image (dy > 0) and from the left where it
+    goes up; a level edge (dy == 0) keeps the row only on its inner side. A set's spans are
+    marked +1 at their first pixel and -1 past their last along the rows of the set's box, and
+    a pixel is covered where the running sum is positive: overlaps count once.
+    """
+    n_sets = len(starts) - 1
+    counts = np.zeros(n_sets, np.int64)
+    spans = 0
+    for t in range(len(tris)):
+        spans += max(r1[t] - r0[t], 0)
+    rows = np.empty(spans, np.int64)
+    firsts = np.empty(spans, np.int64)
+    lasts = np.empty(spans, np.int64)
+    for s in range(n_sets):
+        k = 0
+        top, bottom, left, right = 1 << 62, -1, 1 << 62, -1
+        for t in range(starts[s], starts[s + 1]):
+            for r in range(r0[t], r1[t]):
+                y = r + 0.5
+                lo, hi, ok = -np.inf, np.inf, True
+                for e in range(3):
+                    px, py = tris[t, e, 0], tris[t, e, 1]
+                    f = (e + 1) % 3
+                    dx, dy = tris[t, f, 0] - px, tris[t, f, 1] - py
+                    w = (y - py) * dx
+                    if dy > 0:
+                        hi = min(hi, w / dy + px)
+                    elif dy < 0:
+                        lo = max(lo, w / dy + px)
+                    elif w < 0:
+                        ok = False
+                first = max(np.ceil(lo - 0.5), 0.0)
+                last = min(np.floor(hi - 0.5), width - 1.0)
+                if ok and last >= first:
+                    rows[k], firsts[k], lasts[k] = r, int(first), int(last)
+                    top, bottom = min(top, r), max(bottom, r)
+                    left, right = min(left, int(first)), max(right, int(last))
+                    k += 1
+        if k == 0:
+            continue
+        stride = right - left + 2
+        marks = np.zeros((bottom - top + 1) * stride, np.int32)
+        for i in range(k):
+            at = (rows[i] - top) * stride - left
+            marks[at + firsts[i]] += 1
+            marks[at + lasts[i] + 1] -= 1
+        level, covered = 0, 0
+        for i in range(len(marks)):
+            level += marks[i]
+            if level > 0:
+                covered += 1
+        counts[s] = covered
+    return counts
+
+
+@njit(cache=True, error_model="numpy")  # a ray along the plane divides by zero: s is inf, as in numpy
+def plane_cells(depth: np.ndarray, r0: int, c0: int, rows: int, cols: int, M: np.ndarray, t: np.ndarray,
+                z: float, cell_m: float, occlusion_m: float, lo: np.ndarray,
+                codes: np.ndarray):  # pragma: no cover (compiled: coverage cannot see inside)
+    """For each pixel of the window (rows x cols at r0, c0): where its ray meets the plane at
+    height z and which lattice cell's code that point reads.
+
+    The ray through pixel centre (u, w) is M (u, w, 1), scaled so that its camera-frame z is 1
+    (M = R K^-1; t the camera's position), so s = (z - t_z) / (M_z . (u, w, 1)) is the optical-axis
+    depth at which it meets the plane; the pixel sees the plane where s > 0 and the rendered depth
+    lies within ``occlusion_m`` of s. Its point is t + s M (u, w, 1), its cell floor(point /
+    cell_m) - lo in ``codes`` (rows following y). Returns the window's codes (0 where unseen or
+    off the codes) and, in row-major order, the flat window index and plane point of every pixel
+    whose code is not 0.
+    """
+    out = np.zeros((rows, cols), np.uint8)
+    n = 0
+    at = np.empty(rows * cols, np.int64)
+    xs = np.empty(rows * cols, np.float64)
+    ys = np.empty(rows * cols, np.float64)
+    height = z - t[2]
+    code_rows, code_cols = codes.shape
+    for i in range(rows):
+        w = r0 + i + 0.5
+        for j in range(cols):
+            u = c0 + j + 0.5
+            s = height / (M[2, 0] * u + M[2, 1] * w + M[2, 2])
+            if not (s > 0 and abs(np.float64(depth[r0 + i, c0 + j]) - s) <= occlusion_m):
+                continue
+            x = ((u * M[0, 0] + w * M[0, 1]) + M[0, 2]) * s + t[0]
+            y = ((u * M[1, 0] + w * M[1, 1]) + M[1, 2]) * s + t[1]
+            ix = int(np.floor(x / cell_m)) - lo[0]
+            iy = int(np.floor(y / cell_m)) - lo[1]
+            if 0 <= ix < code_cols and 0 <= iy < code_rows and codes[iy, ix] != 0:
+                out[i, j] = codes[iy, ix]
+                at[n], xs[n], ys[n] = i * cols + j, x, y
+                n += 1
+    return out, at[:n], xs[:n], ys[:n]
