@@ -34,3 +34,26 @@ def test_each_object_s_visible_share_is_its_pixels_over_its_own_silhouette(rende
             assert f.visible_share == min(1.0, pixels / max(alone, 1))
             checked += 1
     assert checked >= 8
+
+
+def test_stored_outlines_are_the_micrometres_of_the_posed_mesh(rendered):
+    """A record keeps each ground outline as it is (no second rounding): it must already be the
+    posed mesh's convex outline in whole micrometres, which rounding again leaves unchanged."""
+    from scipy.spatial import ConvexHull
+
+    from refspatial.relations.geometry import inside_convex
+    from refspatial.relations.stored import DIGITS, object_record, rounded_rows
+
+    checked = 0
+    for scene, _, facts in rendered:
+        for obj in scene.objects:
+            stored = object_record(obj, facts.objects[obj.object_id])["outline_world_m"]
+            assert stored == rounded_rows(stored, DIGITS)
+            T = obj.pose.matrix()
+            xy = (obj.asset.visual.vertices_m @ T[:3, :3].T + T[:3, 3])[:, :2]
+            corners = {tuple(c) for c in np.round(xy, DIGITS).tolist()}
+            assert all(tuple(c) in corners for c in stored), "each corner is a posed vertex in micrometres"
+            hull = xy[ConvexHull(xy).vertices]  # and the outline holds the unrounded mesh's
+            assert inside_convex(hull, np.array(stored), grow=1e-6).all()
+            checked += 1
+    assert checked >= 8

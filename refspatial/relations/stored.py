@@ -49,7 +49,8 @@ def object_record(obj: PlacedObject, facts: ObjectFacts) -> dict:
                       "quat_wxyz": rounded(obj.pose.quat_wxyz)},
         "aabb_world_m": [rounded(facts.aabb_world_m[0]), rounded(facts.aabb_world_m[1])],
         "footprint_world_m": rounded_rows(facts.footprint_world),
-        "outline_world_m": rounded_rows(facts.outline_world) if facts.outline_world is not None else None,
+        # Already micrometres (``facts._outline`` rounds before its hull), which round() keeps as they are.
+        "outline_world_m": facts.outline_world.tolist() if facts.outline_world is not None else None,
         "front_world": rounded(facts.front_world),
         "front_side": a.front_side,
         "volume_m3": round(facts.volume_m3, 9),
