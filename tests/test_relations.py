@@ -462,3 +462,20 @@ def test_only_a_relation_may_list_its_true_groups_from_candidates():
         predicate("a_measure_with_candidates", family="distance", arity=2, frame="world", kind="measure",
                   candidates=lambda v, objs: set())(lambda v, a, b: None)
     assert "a_measure_with_candidates" not in PREDICATES
+
+
+def test_compiled_loops_run_where_no_folder_can_hold_their_cache():
+    """A read-only install with a read-only home leaves numba no cache folder (here: numba told to
+    look only where NUMBA_CACHE_DIR points, which is unset): the loops compile per process
+    instead of failing the import."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["NUMBA_CACHE_LOCATOR_CLASSES"] = "UserProvidedCacheLocator"
+    code = ("import numpy as np; from refspatial.relations.geometry import covered_pixels; "
+            "print(covered_pixels(np.array([[[0, 0], [10, 0], [0, 10]]], float), 20, 20))")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["55"]  # the 10 x 10 right triangle's pixel centres: 10 + 9 + ... + 1

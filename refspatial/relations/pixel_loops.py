@@ -16,7 +16,19 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+def _compiled(**options):
+    """numba's ``njit`` with its on-disk cache, or without it where no folder can hold the cache
+    (a read-only install and a read-only home): then each process compiles the loop itself
+    (about a second) rather than refusing to import."""
+    def wrap(fn):
+        try:
+            return njit(cache=True, **options)(fn)
+        except RuntimeError:  # numba: "cannot cache function ...: no locator available"
+            return njit(**options)(fn)
+    return wrap
+
+
+@_compiled()
 def union_counts(tris: np.ndarray, r0: np.ndarray, r1: np.ndarray, starts: np.ndarray,
                  width: int) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
     """Pixels covered by each set of positively wound triangles.
@@ -80,7 +92,7 @@ def union_counts(tris: np.ndarray, r0: np.ndarray, r1: np.ndarray, starts: np.nd
     return counts
 
 
-@njit(cache=True, error_model="numpy")  # a ray along the plane divides by zero: s is inf, as in numpy
+@_compiled(error_model="numpy")  # a ray along the plane divides by zero: s is inf, as in numpy
 def plane_cells(depth: np.ndarray, r0: int, c0: int, rows: int, cols: int, M: np.ndarray, t: np.ndarray,
                 z: float, cell_m: float, occlusion_m: float, lo: np.ndarray,
                 codes: np.ndarray):  # pragma: no cover (compiled: coverage cannot see inside)
