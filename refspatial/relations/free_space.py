@@ -105,28 +105,29 @@ def solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool = T
     """
     key = ("free_space", tuple(constraints), with_mask)
     if key not in v.cache:
-        # The mask is made last, from an answer found without it: none without the mask is
-        # none with it (the relation stage has solved every single sector without masks).
-        if with_mask and v.cache.get(("free_space", key[1], False), True) is None:
-            v.cache[key] = None
+        if not with_mask:
+            v.cache[key] = _solve(v, key[1])
         else:
-            v.cache[key] = _solve(v, tuple(constraints), with_mask)
+            # The mask is made last, from the answer found without it: none without the mask is
+            # none with it, and the answer's own search is not made twice.
+            answer = solve(v, key[1], with_mask=False)
+            v.cache[key] = None if answer is None else _masked(v, key[1], answer)
     return v.cache[key]
 
 
-def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -> FreeSpace | None:
+def _solve(v: ViewFacts, constraints: tuple[Constraint, ...]) -> FreeSpace | None:
+    """The answer without its mask."""
     if any(c.kind in ("sector", "offset") and c.direction in ("front", "behind")
            and front_reads_two_ways(v, v.objects[c.anchors[0]]) for c in constraints):
         return None  # "behind the chair" facing away is its front by its own reading
-    anchors = [v.objects[i] for c in constraints for i in c.anchors]
-    platform = _platform(v, constraints, anchors)
+    platform = _platform(v, constraints, _anchors(v, constraints))
     if platform is None:
         return None
     support, polygon, z = platform
     raster = _raster(v, support, polygon, z)
     first, last = _grid(v, constraints, polygon)
     rows, cols = np.nonzero(raster.block(first, last))  # the free cells; then those in every region
-    offset = any(c.kind == "offset" for c in constraints)
+    offset = _has_offset(constraints)
     if not offset and float(len(rows) * CELL_M**2) <= MIN_FREE_AREA_M2:
         # Too little free room in the region's whole box, so in the region, whose free cells are
         # some of the box's (a third of the solves that find none end here).
@@ -160,23 +161,39 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool) -
     if not _cleared(clear, uv)[0]:
         chosen = nearest
         uv, _ = project(np.array([[*chosen, z]]), v.K, v.T_world_cam)
-    world = np.array([*chosen, z])
     point = _normalised(v, uv[0])
     if point is None:
         return None
-    mask = None
-    if with_mask:
-        mask = _image_mask(v, constraints, raster, z, first, last)
-        if not _on_mask(v, mask, point):
-            # The snapped point keeps to everything the solve's own points kept to: a snap that
-            # only stayed in the sector landed 2 cm beside a strip's anchor (test, new scenes).
-            snapped = _snap(v, mask & clear, uv[0], z, lambda p: _in_regions(v, constraints, p) &
-                            _free_exact(v, p, support, polygon, z) & _in_strips(v, constraints, p, support, z) &
-                            _squarely_between(v, constraints, p) & (offset | _roomy_exact(v, p, support, z)))
-            if snapped is None:
-                return None
-            point, world = snapped, _lift(v, snapped, z)
-    return FreeSpace(point, world, mask, area, support)
+    return FreeSpace(point, np.array([*chosen, z]), None, area, support)
+
+
+def _masked(v: ViewFacts, constraints: tuple[Constraint, ...], answer: FreeSpace) -> FreeSpace | None:
+    """The answer with its image mask, its point snapped onto the mask where it lies off it (or
+    None when no mask pixel will do)."""
+    support, polygon, z = _platform(v, constraints, _anchors(v, constraints))
+    first, last = _grid(v, constraints, polygon)
+    mask = _image_mask(v, constraints, _raster(v, support, polygon, z), z, first, last)
+    point, world = answer.point, answer.point_world_m
+    if not _on_mask(v, mask, point):
+        # The snapped point keeps to everything the solve's own points kept to: a snap that
+        # only stayed in the sector landed 2 cm beside a strip's anchor (test, new scenes).
+        offset = _has_offset(constraints)
+        uv, _ = project(world[None], v.K, v.T_world_cam)
+        snapped = _snap(v, mask & image_clearance(v, support), uv[0], z, lambda p: _in_regions(v, constraints, p) &
+                        _free_exact(v, p, support, polygon, z) & _in_strips(v, constraints, p, support, z) &
+                        _squarely_between(v, constraints, p) & (offset | _roomy_exact(v, p, support, z)))
+        if snapped is None:
+            return None
+        point, world = snapped, _lift(v, snapped, z)
+    return FreeSpace(point, world, mask, answer.area_m2, support)
+
+
+def _anchors(v: ViewFacts, constraints) -> list[ObjectFacts]:
+    return [v.objects[i] for c in constraints for i in c.anchors]
+
+
+def _has_offset(constraints) -> bool:
+    return any(c.kind == "offset" for c in constraints)
 
 
 def _squarely_between(v: ViewFacts, constraints, points: np.ndarray) -> np.ndarray:
