@@ -240,6 +240,21 @@ def test_covered_pixels_is_the_union_of_pixel_centres_inside(coords):
         _covered_brute_force(tris, 40, 30, 1e-6)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(*[st.integers(-4, 90).map(lambda k: k / 2)] * 6), min_size=1, max_size=12))
+def test_covered_pixels_on_the_half_pixel_grid(coords):
+    """Corners on whole and half pixels: level edges, edges through pixel centres and spans that
+    end exactly on a centre are the rule here, not the exception."""
+    from refspatial.relations.geometry import covered_pixels
+
+    tris = np.array(coords, dtype=float).reshape(-1, 3, 2)
+    both = np.concatenate([tris, tris[:, ::-1]])
+    (ux, uy), (vx, vy) = (tris[:, 1] - tris[:, 0]).T, (tris[:, 2] - tris[:, 0]).T
+    tris = tris[np.abs(ux * vy - uy * vx) > 1e-9]
+    assert _covered_brute_force(tris, 40, 30, -1e-6) <= covered_pixels(both, 40, 30) <= \
+        _covered_brute_force(tris, 40, 30, 1e-6)
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.lists(st.tuples(*[st.floats(-30, 70, allow_nan=False)] * 6), max_size=8), max_size=5))
 def test_covered_pixels_of_several_sets_at_once_are_each_set_s_own(sets):

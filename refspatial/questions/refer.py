@@ -536,16 +536,17 @@ def _named_objects(relations: tuple[Relation, ...]) -> int:
 
 def _kept(view: ViewFacts, rel: Relation, head: int) -> tuple[int, int]:
     """The head's candidates (the set bits of ``head``) the relation keeps, and those it cannot
-    decide, as bit masks: the relation's verdicts on every seen object but its anchors, worked
+    decide, as bit masks: the relation's verdicts on every visible object but its anchors, worked
     out once per view and relation, then cut to the head (every head under which the search meets
-    a relation to an anchor asks the same verdicts of its own candidates)."""
+    a relation to an anchor asks the same verdicts of its own candidates; ``_head`` holds visible
+    objects only)."""
     kept, undecided = _verdict_masks(view, rel.predicate, tuple(a.object_id for a in rel.anchors), rel.reverse)
     return kept & head, undecided & head
 
 
 def _verdict_masks(view: ViewFacts, predicate: str, anchors: tuple[int, ...], reverse: bool) -> tuple[int, int]:
-    """Bit masks of the seen objects (anchors aside) a relation to ``anchors`` keeps, and of those
-    it cannot decide (memoised per view)."""
+    """Bit masks of the visible objects (anchors aside) a relation to ``anchors`` keeps, and of
+    those it cannot decide (memoised per view)."""
     key = ("kept", predicate, anchors, reverse)
     try:
         return view.cache[key]
@@ -555,7 +556,7 @@ def _verdict_masks(view: ViewFacts, predicate: str, anchors: tuple[int, ...], re
     pred = PREDICATES[predicate]
     kept = undecided = 0
     for o in view.objects:
-        if o.status == "hidden" or o.object_id in anchors:
+        if o.status != "visible" or o.object_id in anchors:
             continue
         verdict = pred(view, *anchor_facts, o) if reverse else pred(view, o, *anchor_facts)
         if verdict is None:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .pixel_loops import union_counts
+
 
 def _next(a: np.ndarray) -> np.ndarray:
     """Each corner's successor around the polygon (np.roll(a, -1, axis=0), without its overhead:
@@ -245,8 +247,6 @@ def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> li
     """
     if not meshes:
         return []
-    from .pixel_loops import union_counts  # numba's import is kept off the command line's start
-
     tris = np.concatenate(meshes)
     a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])

@@ -5,7 +5,9 @@ projected triangles) into row spans, and following every pixel of a free-space w
 the platform plane. As whole-array numpy steps each cost dozens of passes over temporaries as
 big as the frame's window; as one loop they cost a third to a fifth of that. Each loop does the
 arithmetic numpy did, in the same IEEE operations and order (numba without ``fastmath`` neither
-reorders nor fuses them), so every count, mask and cell is the same bit for bit. Compiled once
+reorders nor fuses them), so every count, mask and cell is the same bit for bit on the finite
+coordinates they are given (a NaN would not spread through ``min`` as through numpy's: objects
+that reach behind the camera are never drawn). Compiled once
 per machine: numba caches the machine code beside this file (or in the user's cache folder when
 the package folder is read-only).
 """
