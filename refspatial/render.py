@@ -25,6 +25,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from .assets import MaterialSpec  # noqa: E402
 from .mjcf import COLLISION_GROUP, ROOM_GROUP, SpecOptions, build_spec, object_of_geom  # noqa: E402
+from .pixel_loops import ids_upright, metres_upright  # noqa: E402
 from .scene import Camera, Scene  # noqa: E402
 
 SPARE_GEOMS = 64  # room in the abstract scene beyond the model's own geoms (lights, decor)
@@ -161,8 +162,7 @@ def _render_one(model, data, ctx, scn, cam: Camera, lookup: np.ndarray,
     with _timed(timings, "convert"):
         # OpenGL's rows run bottom-up: each conversion reads its buffer upside down, so the
         # flip costs no pass of its own.
-        return View(cam, np.ascontiguousarray(rgb[::-1]), metric_depth(model, raw[::-1]),
-                    _segmentation(scn, ids[::-1], lookup))
+        return View(cam, np.ascontiguousarray(rgb[::-1]), metric_depth(model, raw), _segmentation(scn, ids, lookup))
 
 
 def room_casts_no_shadow(model, scn) -> None:
@@ -177,31 +177,22 @@ def room_casts_no_shadow(model, scn) -> None:
 
 
 def metric_depth(model, raw: np.ndarray) -> np.ndarray:
-    """Reversed-Z depth buffer -> metres along the optical axis (platform.md: n f / (n + raw (f - n)))."""
+    """A reversed-Z depth read-back (rows bottom-up, as OpenGL reads them) -> metres along the
+    optical axis, rows top-down (platform.md: n f / (n + raw (f - n)), in float64)."""
     extent = model.stat.extent
-    n = np.float64(model.vis.map.znear * extent)
-    f = np.float64(model.vis.map.zfar * extent)
-    # The same float64 arithmetic as n * f / (n + raw * (f - n)), in one buffer (a GPU box spent
-    # 8 ms a view converting read-backs, more than its depth pass).
-    out = raw.astype(np.float64)
-    out *= f - n
-    out += n
-    np.divide(n * f, out, out=out)
-    return out.astype(np.float32)
+    # One compiled pass (a GPU box spent 8 ms a view converting read-backs as numpy steps, more
+    # than its depth pass).
+    return metres_upright(raw, float(model.vis.map.znear * extent), float(model.vis.map.zfar * extent))
 
 
 def _segmentation(scn, ids: np.ndarray, lookup: np.ndarray) -> np.ndarray:
-    """Id colours -> object ids: colour value s + 1 is the drawn geom with segid s (0 is the background)."""
+    """Id colours (rows bottom-up) -> object ids, rows top-down: colour value s + 1 is the drawn
+    geom with segid s (0 is the background)."""
     import mujoco
 
-    # Two bytes hold every code below 65,536 drawn geoms; uint16 work is a fifth of int64's.
-    wide = np.int64 if ids[..., 2].any() else np.uint16
-    code = ids[..., 0].astype(wide) | (ids[..., 1].astype(wide) << 8)
-    if wide is np.int64:
-        code |= ids[..., 2].astype(wide) << 16
     table = np.full(scn.ngeom + 2, -1, dtype=np.int32)
     for k in range(scn.ngeom):
         g = scn.geoms[k]
         if g.segid >= 0 and g.objtype == mujoco.mjtObj.mjOBJ_GEOM and 0 <= g.objid < len(lookup):
             table[g.segid + 1] = lookup[g.objid]
-    return np.take(table, code, mode="clip")  # codes past the table read its last entry
+    return ids_upright(ids, table)

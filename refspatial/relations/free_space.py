@@ -39,7 +39,7 @@ from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import grown_box, half_planes, inside_convex, inside_convex_grid, inside_half_planes, project, shared
 from .masks import box_of, cached_boxes, padded
-from .pixel_loops import plane_cells
+from ..pixel_loops import plane_cells
 from .registry import predicate
 
 CELL_M = 0.01

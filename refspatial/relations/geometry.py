@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .pixel_loops import union_counts
+from ..pixel_loops import union_counts
 
 
 def _next(a: np.ndarray) -> np.ndarray:

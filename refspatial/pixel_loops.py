@@ -1,15 +1,16 @@
-"""The relation engine's per-pixel loops, compiled with numba.
+"""Per-pixel loops of the renderer's read-back and of the relation engine, compiled with numba.
 
-Two passes dominated the relation stage's array work: cutting a view's silhouettes (~8,000
-projected triangles) into row spans, and following every pixel of a free-space window down to
-the platform plane. As whole-array numpy steps each cost dozens of passes over temporaries as
-big as the frame's window; as one loop they cost a third to a fifth of that. Each loop does the
-arithmetic numpy did, in the same IEEE operations and order (numba without ``fastmath`` neither
-reorders nor fuses them), so every count, mask and cell is the same bit for bit on the finite
-coordinates they are given (a NaN would not spread through ``min`` as through numpy's: objects
-that reach behind the camera are never drawn). Compiled once
-per machine: numba caches the machine code beside this file (or in the user's cache folder when
-the package folder is read-only).
+A few passes over whole frames or windows cost more as numpy steps than their arithmetic: turning
+the depth and segmentation read-backs into metres and object ids, cutting a view's silhouettes
+(~8,000 projected triangles) into row spans, and following every pixel of a free-space window
+down to the platform plane. As whole-array numpy steps each makes several passes over
+temporaries as big as the frame; as one loop each costs a third to a fifth of that. Each loop
+does the arithmetic numpy did, in the same IEEE operations and order (numba without
+``fastmath`` neither reorders nor fuses them), so every count, mask and cell is the same bit for
+bit on the finite coordinates they are given (a NaN would not spread through ``min`` as through
+numpy's: objects that reach behind the camera are never drawn). Compiled once per machine: numba
+caches the machine code beside this file (or in the user's cache folder when the package folder
+is read-only).
 """
 
 from __future__ import annotations
@@ -132,3 +133,32 @@ def plane_cells(depth: np.ndarray, r0: int, c0: int, rows: int, cols: int, M: np
                 at[n], xs[n], ys[n] = i * cols + j, x, y
                 n += 1
     return out, at[:n], xs[:n], ys[:n]
+
+
+@_compiled()
+def metres_upright(raw: np.ndarray, near: float, far: float) -> np.ndarray:  # pragma: no cover (compiled)
+    """A reversed-Z depth read-back (float32, OpenGL's rows bottom-up) as metres along the optical
+    axis, rows top-down: n f / (n + raw (f - n)) in float64 (platform.md), stored as float32."""
+    h, w = raw.shape
+    out = np.empty((h, w), np.float32)
+    span, product = far - near, near * far
+    for i in range(h):
+        row = h - 1 - i
+        for j in range(w):
+            out[i, j] = product / (raw[row, j] * span + near)
+    return out
+
+
+@_compiled()
+def ids_upright(colours: np.ndarray, table: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled)
+    """A segmentation read-back (uint8 RGB codes, OpenGL's rows bottom-up) as ``table``'s value for
+    each code r | g << 8 | b << 16, rows top-down; a code past the table reads its last entry."""
+    h, w, _ = colours.shape
+    out = np.empty((h, w), np.int32)
+    last = len(table) - 1
+    for i in range(h):
+        row = h - 1 - i
+        for j in range(w):
+            code = np.int64(colours[row, j, 0]) | np.int64(colours[row, j, 1]) << 8 | np.int64(colours[row, j, 2]) << 16
+            out[i, j] = table[min(code, last)]
+    return out
