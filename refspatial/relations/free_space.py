@@ -656,15 +656,23 @@ def _near(pixels: np.ndarray, n: int) -> np.ndarray:
     """Bool: some True pixel lies within squared distance n - 1 (pixels off the image are not True).
 
     The disk of pixel offsets dx^2 + dy^2 <= n - 1 is the union of the rectangles at the corners
-    of its staircase outline (12 for the clearance's 19.2 px), so the mask is the union of as many
-    rectangular dilations, each separable into a row and a column pass: 0.65 of OpenCV's exact
-    distance transform's time on the clearance windows, and exact by construction."""
+    of its staircase outline (12 for the clearance's 19.2 px), widths growing as heights shrink,
+    so the mask is the union of as many rectangular dilations: exact by construction, and 0.65 of
+    OpenCV's exact distance transform's time. They are built up from one another, since dilating
+    by one rectangle and then another is dilating by their sum (and a dilation of a union is the
+    union of the dilations): with A_k the pixels' columns dilated by rectangle k's half height
+    (each from the next shorter one's) and R(w) a row dilation,
+        near = R(w_1)(A_1 | R(w_2 - w_1)(A_2 | ... R(w_12 - w_11)(A_12))),
+    two dozen narrow passes instead of twelve full rectangles (each pass costs with its length)."""
     src = pixels.view(np.uint8)
-    (half_w, half_h), *rest = _disk_rectangles(n)
-    near = _dilated(src, half_w, half_h)
-    for half_w, half_h in rest:  # one dilation held at a time
-        np.bitwise_or(near, _dilated(src, half_w, half_h), out=near)
-    return near.view(bool)
+    rects = _disk_rectangles(n)  # (half width, half height), from the tallest to the widest
+    w, h = rects[-1]
+    columns = near = _dilated(src, 0, h)
+    for w_k, h_k in reversed(rects[:-1]):
+        columns = _dilated(columns, 0, h_k - h)
+        near = np.bitwise_or(columns, _dilated(near, w - w_k, 0))
+        w, h = w_k, h_k
+    return _dilated(near, w, 0).view(bool)
 
 
 def _dilated(src: np.ndarray, half_w: int, half_h: int) -> np.ndarray:
