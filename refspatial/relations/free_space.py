@@ -33,13 +33,13 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
 
+from ..pixel_loops import plane_cells
 from ..scene import LEG_HALF_M, LEG_INSET_M
 from .directional import corridor, squarely_between
 from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import grown_box, half_planes, inside_convex, inside_convex_grid, inside_half_planes, project, shared
 from .masks import box_of, cached_boxes, padded
-from ..pixel_loops import plane_cells
 from .registry import predicate
 
 CELL_M = 0.01
@@ -657,13 +657,15 @@ def _near(pixels: np.ndarray, n: int) -> np.ndarray:
 
     The disk of pixel offsets dx^2 + dy^2 <= n - 1 is the union of the rectangles at the corners
     of its staircase outline (12 for the clearance's 19.2 px), widths growing as heights shrink,
-    so the mask is the union of as many rectangular dilations: exact by construction, and 0.65 of
-    OpenCV's exact distance transform's time. They are built up from one another, since dilating
-    by one rectangle and then another is dilating by their sum (and a dilation of a union is the
-    union of the dilations): with A_k the pixels' columns dilated by rectangle k's half height
-    (each from the next shorter one's) and R(w) a row dilation,
+    so the mask is the union of as many rectangular dilations, exact by construction. They are
+    built up from one another, since dilating by one rectangle and then another is dilating by
+    their sum (and a dilation of a union is the union of the dilations): with A_k the pixels'
+    columns dilated by rectangle k's half height (each from the next shorter one's) and R(w) a
+    row dilation,
         near = R(w_1)(A_1 | R(w_2 - w_1)(A_2 | ... R(w_12 - w_11)(A_12))),
-    two dozen narrow passes instead of twelve full rectangles (each pass costs with its length)."""
+    two dozen narrow passes instead of twelve full rectangles, each costing with its length (0.76
+    against 1.40 ms on a 300 x 700 window; OpenCV's exact distance transform took 1.5 times the
+    full rectangles' time)."""
     src = pixels.view(np.uint8)
     rects = _disk_rectangles(n)  # (half width, half height), from the tallest to the widest
     w, h = rects[-1]

@@ -251,7 +251,7 @@ def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> li
     a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
     drawn = area > 1e-12
-    tris = np.ascontiguousarray(tris[drawn])
+    tris = tris[drawn]  # a new C-ordered array, as the compiled loop reads it
     set_of = np.repeat(np.arange(len(meshes)), [len(m) for m in meshes])[drawn]
     starts = np.searchsorted(set_of, np.arange(len(meshes) + 1))  # each set's first triangle, then the end
     # Rows whose centre (row + 0.5) lies within each triangle's height, clipped to the image.
