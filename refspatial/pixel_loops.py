@@ -1,10 +1,13 @@
-"""Per-pixel loops of the renderer's read-back and of the relation engine, compiled with numba.
+"""Per-pixel and per-cell loops of the renderer's read-back and of the relation engine, compiled
+with numba.
 
 A few passes over whole frames or windows cost more as numpy steps than their arithmetic: turning
 the depth and segmentation read-backs into metres and object ids, cutting a view's silhouettes
 (~8,000 projected triangles) into row spans, and following every pixel of a free-space window
 down to the platform plane. As whole-array numpy steps each makes several passes over
-temporaries as big as the frame; as one loop each costs a third to a fifth of that. Each loop
+temporaries as big as the frame; as one loop each costs a third to a fifth of that. The
+free-space sector sweep is the other case: a few thousand cells, but some forty numpy calls a
+solve, each costing more to set up than its arithmetic. Each loop
 does the arithmetic numpy did, in the same IEEE operations and order (numba without
 ``fastmath`` neither reorders nor fuses them), so every count, mask and cell is the same bit for
 bit on the finite coordinates they are given (a NaN would not spread through ``min`` as through
@@ -162,3 +165,80 @@ def ids_upright(colours: np.ndarray, table: np.ndarray) -> np.ndarray:  # pragma
             code = np.int64(colours[row, j, 0]) | np.int64(colours[row, j, 1]) << 8 | np.int64(colours[row, j, 2]) << 16
             out[i, j] = table[min(code, last)]
     return out
+
+
+@_compiled()
+def sector_cells(free: np.ndarray, raster_first: np.ndarray, first: np.ndarray, last: np.ndarray,
+                 centre: np.ndarray, axis: np.ndarray, reach: float, cos_half: float,
+                 cell_m: float):  # pragma: no cover (compiled: coverage cannot see inside)
+    """The free cells of a platform raster within the lattice box first..last (inclusive (x, y)
+    indices) that lie in a circular sector, and how many free cells the box holds.
+
+    ``free`` is the raster (rows following y) whose cell (0, 0) has index ``raster_first``; a cell
+    off it is not free. A cell's centre p = (index + 0.5) cell_m is in the sector (apex ``centre``,
+    unit ``axis``, radius ``reach``, half-angle with cosine ``cos_half``) when, with r = p - centre,
+    |r| > 1e-9, |r| <= reach and r . axis >= cos_half |r|. Returns (free cells in the box, then
+    of those in the sector in row-major order: raster rows, raster columns, x, y)."""
+    rows = max(last[1] - first[1] + 1, 0)
+    cols = max(last[0] - first[0] + 1, 0)
+    n_rows, n_cols = free.shape
+    out_r = np.empty(rows * cols, np.int64)
+    out_c = np.empty(rows * cols, np.int64)
+    xs = np.empty(rows * cols, np.float64)
+    ys = np.empty(rows * cols, np.float64)
+    in_box, n = 0, 0
+    for i in range(rows):
+        r = first[1] + i - raster_first[1]
+        if r < 0 or r >= n_rows:
+            continue
+        y = (first[1] + i + 0.5) * cell_m
+        ry = y - centre[1]
+        for j in range(cols):
+            c = first[0] + j - raster_first[0]
+            if c < 0 or c >= n_cols or not free[r, c]:
+                continue
+            in_box += 1
+            x = (first[0] + j + 0.5) * cell_m
+            rx = x - centre[0]
+            dist = np.sqrt(rx * rx + ry * ry)
+            if rx * axis[0] + ry * axis[1] >= cos_half * dist and dist <= reach and dist > 1e-9:
+                out_r[n], out_c[n], xs[n], ys[n] = r, c, x, y
+                n += 1
+    return in_box, out_r[:n], out_c[:n], xs[:n], ys[:n]
+
+
+@_compiled()
+def strip_answer(rows: np.ndarray, cols: np.ndarray, xs: np.ndarray, ys: np.ndarray, seen: np.ndarray,
+                 cleared: np.ndarray, roomy: np.ndarray, axis: np.ndarray, across: np.ndarray, lo: float,
+                 hi: float, stop: float):  # pragma: no cover (compiled: coverage cannot see inside)
+    """Of a sector's free cells (raster ``rows``, ``cols``; centres ``xs``, ``ys``): how many are
+    seen, and of the seen ones those also cleared and roomy whose centre lies in the strip (lo <=
+    p . across <= hi, p . axis <= stop): their count, the mean of their centres (summed in order,
+    as numpy's column mean), and the one nearest to that mean (the first of equals)."""
+    visible, n = 0, 0
+    sx, sy = 0.0, 0.0
+    keep = np.zeros(len(rows), np.bool_)
+    for k in range(len(rows)):
+        r, c = rows[k], cols[k]
+        if not seen[r, c]:
+            continue
+        visible += 1
+        x, y = xs[k], ys[k]
+        lateral = x * across[0] + y * across[1]
+        if (cleared[r, c] and roomy[r, c] and lateral >= lo and lateral <= hi
+                and x * axis[0] + y * axis[1] <= stop):
+            keep[k] = True
+            sx += x
+            sy += y
+            n += 1
+    mean = np.array([sx / n, sy / n]) if n else np.zeros(2)
+    nearest = np.zeros(2)
+    best = np.inf
+    for k in range(len(rows)):
+        if keep[k]:
+            dx, dy = xs[k] - mean[0], ys[k] - mean[1]
+            d = np.sqrt(dx * dx + dy * dy)
+            if d < best:
+                best = d
+                nearest[0], nearest[1] = xs[k], ys[k]
+    return visible, n, mean, nearest

@@ -399,3 +399,36 @@ def test_cell_flags_worked_out_cell_by_cell_match_the_whole(views, monkeypatch):
         for f, e in zip(got, expected):
             assert np.array_equal(f, e)
         monkeypatch.undo()
+
+
+@pytest.mark.parametrize("lazy", [False, True])
+def test_the_compiled_sector_sweep_equals_the_general_one(views, monkeypatch, lazy):
+    # The relation table's single-sector solves run as two compiled loops; every anchor and
+    # direction (and the same boxes moved half off the raster) must give the general sweep's
+    # area, mean and nearest cell bit for bit, or None with it. ``lazy``: flags worked out cell by
+    # cell, as on a room's floor.
+    from refspatial.relations import free_space as fs
+    if lazy:
+        monkeypatch.setattr(fs, "ALL_AT_ONCE_CELLS", 0)
+    answers = nones = 0
+    for v in views:
+        for a in v.askable():
+            for d in DIRECTIONS:
+                c = Constraint("sector", (a.object_id,), d)
+                platform = fs._platform(v, (c,), [a])
+                if platform is None:
+                    continue
+                support, polygon, z = platform
+                first, last = fs._grid(v, (c,), polygon)
+                raster = fs._raster(v, support, polygon, z)
+                for shift in (np.zeros(2, int), (raster.first - first) + np.array([-7, 5])):
+                    args = (raster, support, z, first + shift, last + shift)
+                    general, swept = fs._swept(v, (c,), *args), fs._swept_sector(v, c, *args)
+                    if general is None:
+                        assert swept is None
+                        nones += 1
+                        continue
+                    assert swept is not None and swept[0] == general[0]
+                    assert np.array_equal(swept[1], general[1]) and np.array_equal(swept[2], general[2])
+                    answers += 1
+    assert answers >= 5 and nones >= 5
