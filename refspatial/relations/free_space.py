@@ -33,7 +33,7 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
 
-from ..pixel_loops import plane_cells, sector_cells, strip_answer
+from ..compiled import plane_cells, sector_cells, strip_answer
 from ..scene import LEG_HALF_M, LEG_INSET_M
 from .directional import corridor, squarely_between
 from .facing import front_reads_two_ways

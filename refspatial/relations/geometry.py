@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pixel_loops import union_counts
+from ..compiled import polygon_gap, union_counts
 
 
 def _next(a: np.ndarray) -> np.ndarray:
@@ -148,15 +148,6 @@ def inside_convex_grid(xs: np.ndarray, ys: np.ndarray, poly: np.ndarray, grow: f
     return keep_y[:, None] & keep_x[None, :]
 
 
-def _separated(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether two convex polygons are apart: some edge direction of either splits them (the
-    separating axis test; vectorised, as outlines have dozens of corners)."""
-    edges = np.concatenate([_next(a) - a, _next(b) - b])
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]])
-    pa, pb = a @ normals.T, b @ normals.T
-    return bool(np.any((pa.max(0) < pb.min(0)) | (pb.max(0) < pa.min(0))))
-
-
 _SHARED: dict = {}  # results of pure functions of world geometry (here and in free_space), by their inputs' bytes
 _SHARED_MAX = 4096
 
@@ -207,16 +198,7 @@ def gap_between(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def _gap_between(a: np.ndarray, b: np.ndarray) -> float:
-    if boxes_meet(a, b) and not _separated(a, b):
-        return 0.0
-    best = np.inf
-    for p, q in ((a, b), (b, a)):  # every corner of one against every edge of the other
-        s, d = q, _next(q) - q
-        t = np.clip(np.einsum("mkj,kj->mk", p[:, None, :] - s[None], d) / np.maximum(np.einsum("kj,kj->k", d, d), 1e-12),
-                    0, 1)
-        closest = s[None] + t[..., None] * d[None]
-        best = min(best, float(np.sqrt(((p[:, None, :] - closest) ** 2).sum(-1)).min()))
-    return best
+    return float(polygon_gap(np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64)))
 
 
 def project(points_world: np.ndarray, K: np.ndarray, T_world_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -243,7 +225,7 @@ def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> li
     back faces, each tile it), so only those with positive signed area are drawn. (cv2.fillPoly
     cannot stand in: it fills many polygons with a parity rule, so overlaps cancel.) Each
     triangle is cut into one span of pixels per row it covers, and a set's spans are counted
-    once where they overlap (``pixel_loops.union_counts``).
+    once where they overlap (``compiled.union_counts``).
     """
     if not meshes:
         return []

@@ -1,19 +1,24 @@
-"""Per-pixel and per-cell loops of the renderer's read-back and of the relation engine, compiled
-with numba.
+"""The loops of the renderer's read-back and of the relation engine that numpy runs badly,
+compiled with numba.
 
-A few passes over whole frames or windows cost more as numpy steps than their arithmetic: turning
-the depth and segmentation read-backs into metres and object ids, cutting a view's silhouettes
-(~8,000 projected triangles) into row spans, and following every pixel of a free-space window
-down to the platform plane. As whole-array numpy steps each makes several passes over
-temporaries as big as the frame; as one loop each costs a third to a fifth of that. The
-free-space sector sweep is the other case: a few thousand cells, but some forty numpy calls a
-solve, each costing more to set up than its arithmetic. Each loop
-does the arithmetic numpy did, in the same IEEE operations and order (numba without
-``fastmath`` neither reorders nor fuses them), so every count, mask and cell is the same bit for
-bit on the finite coordinates they are given (a NaN would not spread through ``min`` as through
-numpy's: objects that reach behind the camera are never drawn). Compiled once per machine: numba
-caches the machine code beside this file (or in the user's cache folder when the package folder
-is read-only).
+Some are passes over whole frames or windows that cost more as numpy steps than their
+arithmetic: turning the depth and segmentation read-backs into metres and object ids, cutting a
+view's silhouettes (~8,000 projected triangles) into row spans, and following every pixel of a
+free-space window down to the platform plane. As whole-array numpy steps each makes several passes
+over temporaries as big as the frame; as one loop each costs a third to a fifth of that. The
+others are small but asked often, where each numpy call costs more to set up than its arithmetic:
+a free-space sector's few thousand cells (some forty calls a solve) and the gap between two
+ground outlines (corner against edge, a few hundred pairs).
+
+Each loop does the arithmetic of the numpy code it replaced, in the same IEEE operations and order
+(numba without ``fastmath`` neither reorders nor fuses them), so every count, mask and cell is the
+same bit for bit on the finite coordinates they are given (a NaN would not spread through ``min``
+as through numpy's: objects that reach behind the camera are never drawn). The one exception is a
+dot product that numpy handed to BLAS, which fuses its multiply and add on CPUs with FMA: here it
+is a plain multiply and add (as in the free-space sweep's numpy path, ``free_space._dot``), an ulp
+apart at most, which only a point exactly on a region's edge would notice. Compiled once per
+machine: numba caches the machine code beside this file (or in the user's cache folder when the
+package folder is read-only).
 """
 
 from __future__ import annotations
@@ -242,3 +247,46 @@ def strip_answer(rows: np.ndarray, cols: np.ndarray, xs: np.ndarray, ys: np.ndar
                 best = d
                 nearest[0], nearest[1] = xs[k], ys[k]
     return visible, n, mean, nearest
+
+
+@_compiled()
+def polygon_gap(a: np.ndarray, b: np.ndarray) -> float:  # pragma: no cover (compiled: coverage cannot see inside)
+    """Smallest distance between two convex polygons ((N, 2) corners in order), 0 when they
+    overlap or touch: no edge normal of either separates their corners' shadows, or else the
+    least distance from a corner of one to an edge of the other (the nearest point of an edge is
+    its start plus t, clipped to [0, 1], times the edge). Squared distances are compared and one
+    square root taken: the root rounds monotonically, so it is the least of the roots."""
+    meet = (a[:, 0].min() <= b[:, 0].max() and a[:, 1].min() <= b[:, 1].max()
+            and b[:, 0].min() <= a[:, 0].max() and b[:, 1].min() <= a[:, 1].max())
+    if meet:
+        separated = False
+        for p in (a, b):
+            for k in range(len(p)):
+                f = (k + 1) % len(p)
+                nx, ny = p[f, 1] - p[k, 1], -(p[f, 0] - p[k, 0])
+                a_lo, a_hi, b_lo, b_hi = np.inf, -np.inf, np.inf, -np.inf
+                for i in range(len(a)):
+                    s = a[i, 0] * nx + a[i, 1] * ny
+                    a_lo, a_hi = min(a_lo, s), max(a_hi, s)
+                for i in range(len(b)):
+                    s = b[i, 0] * nx + b[i, 1] * ny
+                    b_lo, b_hi = min(b_lo, s), max(b_hi, s)
+                if a_hi < b_lo or b_hi < a_lo:
+                    separated = True
+                    break
+            if separated:
+                break
+        if not separated:
+            return 0.0
+    best = np.inf
+    for p, q in ((a, b), (b, a)):
+        for k in range(len(q)):
+            f = (k + 1) % len(q)
+            sx, sy = q[k, 0], q[k, 1]
+            dx, dy = q[f, 0] - sx, q[f, 1] - sy
+            dd = max(dx * dx + dy * dy, 1e-12)
+            for m in range(len(p)):
+                t = min(max(((p[m, 0] - sx) * dx + (p[m, 1] - sy) * dy) / dd, 0.0), 1.0)
+                ex, ey = p[m, 0] - (sx + t * dx), p[m, 1] - (sy + t * dy)
+                best = min(best, ex * ex + ey * ey)
+    return np.sqrt(best)
