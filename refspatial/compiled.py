@@ -290,3 +290,23 @@ def polygon_gap(a: np.ndarray, b: np.ndarray) -> float:  # pragma: no cover (com
                 ex, ey = p[m, 0] - (sx + t * dx), p[m, 1] - (sy + t * dy)
                 best = min(best, ex * ex + ey * ey)
     return np.sqrt(best)
+
+
+@_compiled()
+def inside_planes(points: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
+                  grow: float) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
+    """Whether each of (N, 2) points has p . normal - offset <= grow for every half-plane (K
+    outward unit normals, K offsets): inside the convex polygon they bound, grown by ``grow``.
+    A point is rejected at the first half-plane it lies beyond (a NaN coordinate is never inside,
+    as in numpy's ``all``), where the whole-array test worked out every point against every edge
+    of an outline with up to a hundred corners."""
+    out = np.empty(len(points), np.bool_)
+    for i in range(len(points)):
+        x, y = points[i, 0], points[i, 1]
+        inside = True
+        for k in range(len(offsets)):
+            if not (x * normals[k, 0] + y * normals[k, 1] - offsets[k] <= grow):
+                inside = False
+                break
+        out[i] = inside
+    return out

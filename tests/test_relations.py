@@ -434,6 +434,29 @@ def test_polygon_gap_equals_the_brute_force_gap():
     assert _gap_between(square, square * 0.2 + 0.4) == 0.0  # one inside the other
 
 
+def test_inside_convex_equals_the_whole_array_test():
+    # The compiled half-plane test (first plane a point lies beyond rejects it) against every
+    # point tested against every edge at once, grown and shrunk, with NaN points never inside.
+    from scipy.spatial import ConvexHull
+
+    from refspatial.relations.geometry import half_planes, inside_convex
+
+    rng = np.random.default_rng(8)
+    inside = 0
+    for _ in range(200):
+        pts = rng.normal(0, rng.uniform(0.02, 0.3), (rng.integers(3, 90), 2))
+        poly = pts[ConvexHull(pts).vertices]
+        points = rng.normal(0, 0.3, (rng.integers(0, 400), 2))
+        points[rng.random(len(points)) < 0.02] = np.nan
+        normals, offsets = half_planes(poly)
+        for grow in (0.0, 0.015, -0.01):
+            want = np.all(points[:, 0, None] * normals[:, 0] + points[:, 1, None] * normals[:, 1] - offsets <= grow, axis=1)
+            got = inside_convex(points, poly, grow=grow)
+            assert got.dtype == bool and np.array_equal(got, want)
+            inside += int(got.sum())
+    assert inside > 1000
+
+
 def test_closer_to_the_camera_is_antisymmetric_for_intervals_sharing_an_end():
     """Two things whose depth intervals share their near end to the last ulp (found by the
     property test above): "closer" is decided the same way whichever is asked first."""

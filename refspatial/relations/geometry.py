@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..compiled import polygon_gap, union_counts
+from ..compiled import inside_planes, polygon_gap, union_counts
 
 
 def _next(a: np.ndarray) -> np.ndarray:
@@ -112,7 +112,7 @@ def inside_convex(points: np.ndarray, poly: np.ndarray, grow: float = 0.0) -> np
 def inside_half_planes(points: np.ndarray, planes: tuple[np.ndarray, np.ndarray], grow: float = 0.0) -> np.ndarray:
     """``inside_convex`` of the polygon whose ``half_planes`` are given."""
     normals, offsets = planes
-    return np.all(points @ normals.T - offsets <= grow, axis=1)
+    return inside_planes(np.ascontiguousarray(points, dtype=np.float64), normals, offsets, float(grow))
 
 
 def grown_box(poly: np.ndarray, grow: float) -> tuple[np.ndarray, np.ndarray]:
