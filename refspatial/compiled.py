@@ -310,3 +310,22 @@ def inside_planes(points: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
                 break
         out[i] = inside
     return out
+
+
+@_compiled()
+def inside_planes_grid(xs: np.ndarray, ys: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
+                       grow: float) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
+    """``inside_planes`` of every grid point (x, y), x from ``xs`` and y from ``ys``, as a
+    (len(ys), len(xs)) mask (rows follow y), without making the points."""
+    out = np.empty((len(ys), len(xs)), np.bool_)
+    for i in range(len(ys)):
+        y = ys[i]
+        for j in range(len(xs)):
+            x = xs[j]
+            inside = True
+            for k in range(len(offsets)):
+                if not (x * normals[k, 0] + y * normals[k, 1] - offsets[k] <= grow):
+                    inside = False
+                    break
+            out[i, j] = inside
+    return out

@@ -390,6 +390,7 @@ def _pairs(head: int, binary: list[_Part]) -> list[_Part]:
 _PREDICATE_INDEX = {name: k for k, name in enumerate(sorted(PREDICATES))}
 
 
+@functools.lru_cache(maxsize=1)  # the late import cost 2 us a call, ~140 calls a tabletop record
 def _phrasebook():
     """The template file's phrasebook (imported late: phrases imports this module)."""
     from .phrases import Phrasebook

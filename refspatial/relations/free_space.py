@@ -548,8 +548,7 @@ class _Raster:
         b = np.minimum(np.floor(hi / CELL_M).astype(int) + 1, last)
         if np.any(b < a):
             return
-        block = (b - a + 1)[::-1]
-        hit = inside_convex(_cell_centres(a, block[::-1]), outline, grow=grow).reshape(block)
+        hit = inside_convex_grid(*_cell_axes(a, b - a + 1), outline, grow=grow)
         cells[a[1] - self.first[1]:b[1] - self.first[1] + 1, a[0] - self.first[0]:b[0] - self.first[0] + 1] &= ~hit
 
     def block(self, first: np.ndarray, last: np.ndarray) -> np.ndarray:

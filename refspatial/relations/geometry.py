@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..compiled import inside_planes, polygon_gap, union_counts
+from ..compiled import inside_planes, inside_planes_grid, polygon_gap, union_counts
 
 
 def _next(a: np.ndarray) -> np.ndarray:
@@ -132,13 +132,14 @@ def inside_convex_grid(xs: np.ndarray, ys: np.ndarray, poly: np.ndarray, grow: f
 
     Where every edge is axis-aligned (a table top, a room's floor) the test splits into one
     along x and one along y, the same numbers exactly: with a normal component of 0 or +-1
-    each product in ``points @ normals.T`` is exact, so the dot product is +-x or +-y however
-    it is summed. A floor of a quarter of a million cells costs two short vectors then."""
+    each product in p . normal is exact, so the dot product is +-x or +-y however it is
+    summed. A floor of a quarter of a million cells costs two short vectors then; other
+    outlines are tested cell by cell by a compiled loop (``compiled.inside_planes_grid``)."""
     normals, offsets = half_planes(poly)
     unit = (normals == 0) | (np.abs(normals) == 1)
     if not (np.all(unit) and np.all((normals == 0).sum(axis=1) == 1)):
-        points = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
-        return inside_convex(points, poly, grow).reshape(len(ys), len(xs))
+        return inside_planes_grid(np.ascontiguousarray(xs, dtype=np.float64), np.ascontiguousarray(ys, dtype=np.float64),
+                                  normals, offsets, float(grow))
     keep_x, keep_y = np.ones(len(xs), dtype=bool), np.ones(len(ys), dtype=bool)
     for (nx, ny), offset in zip(normals, offsets):
         if nx != 0:
