@@ -366,19 +366,25 @@ def _clip_edge_by_edge(subject: np.ndarray, clipper: np.ndarray) -> np.ndarray:
     return out
 
 
-def test_clip_convex_equals_clipping_corner_by_corner():
+def _random_hulls(rng: np.random.Generator, corners: tuple[int, int], offset: float, decimals: int) -> list[np.ndarray]:
+    """Two random convex polygons (hulls of normally spread points, their number drawn from
+    ``corners``), each rounded to ``decimals`` with chance 0.3, as records store outlines."""
     from scipy.spatial import ConvexHull
 
+    polys = []
+    for _ in range(2):
+        pts = rng.normal(0, rng.uniform(0.02, 0.3), (rng.integers(*corners), 2)) + rng.normal(0, offset, 2)
+        hull = pts[ConvexHull(pts).vertices]
+        polys.append(np.round(hull, decimals) if rng.random() < 0.3 else hull)
+    return polys
+
+
+def test_clip_convex_equals_clipping_corner_by_corner():
     from refspatial.relations.geometry import clip_convex
 
     rng = np.random.default_rng(11)
     for _ in range(300):
-        polys = []
-        for _ in range(2):
-            pts = rng.normal(0, rng.uniform(0.02, 0.3), (rng.integers(4, 60), 2)) + rng.normal(0, 0.1, 2)
-            hull = pts[ConvexHull(pts).vertices]
-            polys.append(np.round(hull, 3) if rng.random() < 0.3 else hull)
-        a, b = polys
+        a, b = _random_hulls(rng, (4, 60), 0.1, 3)
         for s, c in ((a, b), (b, a), (a, a), (a, a[::-1])):
             got, want = clip_convex(s, c), _clip_edge_by_edge(s, c)
             assert got.shape == want.shape and np.array_equal(got, want)
@@ -410,19 +416,12 @@ def _gap_brute_force(a: np.ndarray, b: np.ndarray) -> float:
 def test_polygon_gap_equals_the_brute_force_gap():
     # The compiled gap (separating axes, then corner-to-edge distances) against the definition,
     # on convex outlines apart, touching, crossing and nested, some rounded as records store them.
-    from scipy.spatial import ConvexHull
-
     from refspatial.relations.geometry import _gap_between
 
     rng = np.random.default_rng(5)
     apart = 0
     for _ in range(400):
-        polys = []
-        for _ in range(2):
-            pts = rng.normal(0, rng.uniform(0.02, 0.3), (rng.integers(3, 80), 2)) + rng.normal(0, 0.3, 2)
-            hull = pts[ConvexHull(pts).vertices]
-            polys.append(np.round(hull, 6) if rng.random() < 0.3 else hull)
-        a, b = polys
+        a, b = _random_hulls(rng, (3, 80), 0.3, 6)
         want = _gap_brute_force(a, b)
         assert _gap_between(a, b) == pytest.approx(want, rel=1e-12, abs=1e-15)
         assert _gap_between(b, a[::-1]) == pytest.approx(want, rel=1e-12, abs=1e-15)  # either order, either winding
