@@ -329,3 +329,41 @@ def inside_planes_grid(xs: np.ndarray, ys: np.ndarray, normals: np.ndarray, offs
                     break
             out[i, j] = inside
     return out
+
+
+@_compiled()
+def clip_polygon(subject: np.ndarray, clip: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled)
+    """Sutherland-Hodgman: the convex polygon ``subject`` cut by each edge a -> b of the convex
+    ``clip`` in turn (both counter-clockwise). A corner p is inside an edge where its side,
+    (b - a) x (p - a), is >= 0; an edge that leaves every corner inside changes nothing, and one
+    that does not keeps, for each corner p and its successor q, p if inside, then the crossing
+    p + (q - p) (s_p / (s_p - s_q)) if the two lie on different sides."""
+    out = subject.copy()
+    for k in range(len(clip)):
+        n = len(out)
+        if n == 0:
+            break
+        f = (k + 1) % len(clip)
+        ax, ay = clip[k, 0], clip[k, 1]
+        ex, ey = clip[f, 0] - ax, clip[f, 1] - ay
+        side = np.empty(n)
+        cuts = False
+        for i in range(n):
+            side[i] = ex * (out[i, 1] - ay) - ey * (out[i, 0] - ax)
+            cuts = cuts or side[i] < 0
+        if not cuts:
+            continue
+        kept = np.empty((2 * n, 2))
+        m = 0
+        for i in range(n):
+            j = (i + 1) % n
+            if side[i] >= 0:
+                kept[m, 0], kept[m, 1] = out[i, 0], out[i, 1]
+                m += 1
+            if (side[i] >= 0) != (side[j] >= 0):
+                t = side[i] / (side[i] - side[j])
+                kept[m, 0] = out[i, 0] + (out[j, 0] - out[i, 0]) * t
+                kept[m, 1] = out[i, 1] + (out[j, 1] - out[i, 1]) * t
+                m += 1
+        out = kept[:m].copy()
+    return out

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..compiled import inside_planes, inside_planes_grid, polygon_gap, union_counts
+from ..compiled import clip_polygon, inside_planes, inside_planes_grid, polygon_gap, union_counts
 
 
 def _next(a: np.ndarray) -> np.ndarray:
@@ -34,34 +34,9 @@ def ccw(poly: np.ndarray) -> np.ndarray:
 
 
 def clip_convex(subject: np.ndarray, clipper: np.ndarray) -> np.ndarray:
-    """Intersection of two convex polygons (Sutherland-Hodgman).
-
-    Most clipper edges cut nothing off (each keeps the polygon as it is), so the polygon is
-    tested against every edge still to come at once, and only the next edge that cuts is
-    applied; the numbers are those of clipping edge by edge."""
-    out = ccw(subject)
-    clip = ccw(clipper)
-    starts, edges = clip, _next(clip) - clip
-    k = 0
-    while k < len(clip) and len(out):
-        # >= 0: inside (left of the edge), per remaining edge (rows) and corner (columns)
-        sides = edges[k:, 0:1] * (out[:, 1] - starts[k:, 1:2]) - edges[k:, 1:2] * (out[:, 0] - starts[k:, 0:1])
-        cutting = np.flatnonzero((sides < 0).any(axis=1))
-        if len(cutting) == 0:
-            break
-        out = _cut(out, sides[cutting[0]])
-        k += int(cutting[0]) + 1
-    return out
-
-
-def _cut(poly: np.ndarray, side: np.ndarray) -> np.ndarray:
-    """The polygon clipped by one edge, given each corner's side of it: each corner p (with its
-    successor q) gives, in order, p if it is inside, then the edge's crossing if p -> q crosses."""
-    inside, next_side = side >= 0, _next(side)
-    with np.errstate(divide="ignore", invalid="ignore"):  # non-crossing pairs are dropped
-        crossing = poly + (_next(poly) - poly) * (side / (side - next_side))[:, None]
-    keep = np.column_stack([inside, inside != (next_side >= 0)]).ravel()
-    return np.stack([poly, crossing], axis=1).reshape(-1, 2)[keep]
+    """Intersection of two convex polygons (Sutherland-Hodgman, edge by edge: ``compiled.clip_polygon``)."""
+    return clip_polygon(np.ascontiguousarray(ccw(subject), dtype=np.float64),
+                        np.ascontiguousarray(ccw(clipper), dtype=np.float64))
 
 
 def boxes_meet(a: np.ndarray, b: np.ndarray) -> bool:
