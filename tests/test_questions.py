@@ -455,3 +455,23 @@ def test_a_relation_true_of_nearly_everything_must_rule_out_more_than_its_anchor
         for ref in anchored_refs(v, v.objects[0], 2, np.random.default_rng(seed), Phrasebook.get().phrased, wanted=8):
             predicates |= {r.predicate for r in ref.relations if r.anchors[0].object_id == 1}
     assert "left_of" in predicates and not predicates & {"separated", "far"}, predicates
+
+
+def test_a_weighted_draw_is_numpys_cumulative_search():
+    # weighted_index sums and bisects in Python; it must pick what numpy's cumsum and
+    # searchsorted pick from the same uniform draw (records depend on every pick), and take one
+    # draw from the generator, as before.
+    from refspatial.questions.balance import weighted_index
+
+    rng = np.random.default_rng(3)
+    for _ in range(20_000):
+        weights = [float(w) for w in rng.uniform(0.01, 5.0, rng.integers(1, 12))]
+        if rng.random() < 0.2:
+            weights = [float(w) for w in rng.integers(1, 4, len(weights))]  # ties in the sums
+        state = rng.bit_generator.state
+        got = weighted_index(rng, weights)
+        after = rng.bit_generator.state
+        rng.bit_generator.state = state
+        cumulative = np.cumsum(weights)
+        assert got == int(np.searchsorted(cumulative, rng.random() * cumulative[-1], side="right"))
+        assert rng.bit_generator.state == after

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import bisect
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -15,8 +17,10 @@ QUANTITY_WEIGHTS: dict[str, float] = {k: float(v) for k, v in _DATA["quantities"
 def weighted_index(rng: np.random.Generator, weights: list[float]) -> int:
     """An index drawn with probability proportional to its weight (one uniform draw, like the
     unweighted choice it replaces, so the generator's stream keeps its length)."""
-    cumulative = np.cumsum(weights)
-    return int(np.searchsorted(cumulative, rng.random() * cumulative[-1], side="right"))
+    # Python's running sums and bisection are numpy's cumsum and searchsorted here, bit for bit
+    # (cumsum adds one after another), without their call costs on a list of a few weights.
+    cumulative = list(itertools.accumulate(weights))
+    return bisect.bisect_right(cumulative, rng.random() * cumulative[-1])
 
 
 def weighted_order(rng: np.random.Generator, weights: list[float]) -> np.ndarray:

@@ -285,7 +285,7 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
     heads = [None, target.color] if not any_category and colour_tells_apart(view, target, category) else [None]
     shapes = (ANCHOR_COMBOS if as_anchor else COMBOS).get(steps, ())
     if len(shapes) > 1:  # a permutation of one draws nothing from the generator
-        shapes = [shapes[int(k)] for k in rng.permutation(len(shapes))]  # no form crowds out the others
+        shapes = [shapes[k] for k in rng.permutation(len(shapes)).tolist()]  # no form crowds out the others
     out: list[Ref] = []
     for color in heads:
         empty = ("no_fit", target.object_id, category, color, steps, as_anchor)
@@ -417,7 +417,7 @@ def _fitting_combinations(target: int, head: int, shapes, rng,
             keep = (COMBOS_CHECKED / size) ** (1 / len(lists))
             lists = [[x[int(i)] for i in rng.permutation(len(x))[:max(1, int(len(x) * keep))]] for x in lists]
         fits = np.argwhere(_fits(1 << target, head, lists))
-        for row in fits[rng.permutation(len(fits))][:COMBOS_WANTED - len(found)]:
+        for row in fits[rng.permutation(len(fits))][:COMBOS_WANTED - len(found)].tolist():
             found.append(tuple(lists[k][i] for k, i in enumerate(row)))
         if len(found) >= COMBOS_WANTED:
             break
