@@ -367,3 +367,25 @@ def clip_polygon(subject: np.ndarray, clip: np.ndarray) -> np.ndarray:  # pragma
                 m += 1
         out = kept[:m].copy()
     return out
+
+
+@_compiled()
+def label_boxes(labels: np.ndarray, count: int) -> np.ndarray:  # pragma: no cover (compiled)
+    """For each label 0..count-1 of a (H, W) integer image, the box around its pixels as (first
+    row, past the last row, first column, past the last column), all -1 where it has none;
+    negative labels are background. One pass, where ``scipy.ndimage.find_objects`` makes its
+    own of a shifted copy."""
+    out = np.full((count, 4), -1, np.int64)
+    h, w = labels.shape
+    for r in range(h):
+        for c in range(w):
+            k = labels[r, c]
+            if k < 0 or k >= count:
+                continue
+            if out[k, 0] < 0:
+                out[k, 0], out[k, 1], out[k, 2], out[k, 3] = r, r + 1, c, c + 1
+            else:
+                out[k, 1] = r + 1
+                out[k, 2] = min(out[k, 2], c)
+                out[k, 3] = max(out[k, 3], c + 1)
+    return out
