@@ -120,13 +120,16 @@ class ObjectFacts:
         c = self.footprint_world
         return float(length(c[1] - c[0]) * length(c[2] - c[1]) * self.height_m)
 
-    def interval_along(self, axis_world: np.ndarray, centre: float) -> tuple[float, float]:
+    def interval_along(self, axis_world: np.ndarray, centre: float | None = None) -> tuple[float, float]:
         """The object's extent along a horizontal axis as (low, high): its ground outline's shadow
-        on the axis, or an interval around its centre coordinate where the facts have no outline.
-        Not centred on the box's centre: a pair of scissors' blades reach 1.5 cm further one way
-        than its box centre says (strict audit: "the can right of the scissors" overlapped them)."""
+        on the axis, or an interval around its centre coordinate (``centre``, by default its box
+        centre's) where the facts have no outline. Not centred on the box's centre: a pair of
+        scissors' blades reach 1.5 cm further one way than its box centre says (strict audit: "the
+        can right of the scissors" overlapped them)."""
         ground = self.ground_outline
         if ground is None:
+            if centre is None:
+                centre = float(self.center_world_m[:2] @ axis_world[:2])
             half = self.extent_along(axis_world) / 2
             return centre - half, centre + half
         key = ("interval", axis_world[:2].tobytes())

@@ -90,9 +90,13 @@ def stored_constraints(stored: list[dict], anchor_ids) -> tuple[Constraint, ...]
 
 
 def direction_axis(v: ViewFacts, direction: str) -> np.ndarray:
-    """Ground-plane unit vector of a viewer-frame direction."""
-    axes = {"left": -v.right_axis, "right": v.right_axis, "front": -v.forward_axis, "behind": v.forward_axis}
-    return axes[direction][:2]
+    """Ground-plane unit vector of a viewer-frame direction (memoised per view: every solve asks)."""
+    key = ("direction_axis", direction)
+    if key not in v.cache:
+        axes = {"left": -v.right_axis, "right": v.right_axis, "front": -v.forward_axis, "behind": v.forward_axis}
+        axis = v.cache[key] = axes[direction][:2].copy()
+        axis.flags.writeable = False  # shared by every caller
+    return v.cache[key]
 
 
 def solve(v: ViewFacts, constraints: tuple[Constraint, ...], with_mask: bool = True) -> FreeSpace | None:
@@ -268,14 +272,14 @@ def _strip(v: ViewFacts, c: Constraint, support: int, z: float) -> _Strip:
     if key not in v.cache:
         a, axis = v.objects[c.anchors[0]], direction_axis(v, c.direction)
         along, across = np.array([*axis, 0.0]), np.array([-axis[1], axis[0], 0.0])
-        lo, hi = a.interval_along(across, float(a.center_world_m[:2] @ across[:2]))
-        edge = a.interval_along(along, float(a.center_world_m[:2] @ axis))[1]
+        lo, hi = a.interval_along(across)
+        edge = a.interval_along(along)[1]
         stop = np.inf
         for o in _obstacles(v, support, z):
             if o.object_id == a.object_id:
                 continue
-            o_lo, o_hi = o.interval_along(across, float(o.center_world_m[:2] @ across[:2]))
-            start = o.interval_along(along, float(o.center_world_m[:2] @ axis))[0]
+            o_lo, o_hi = o.interval_along(across)
+            start = o.interval_along(along)[0]
             if o_hi > lo and o_lo < hi and start >= edge:
                 stop = min(stop, start)
         v.cache[key] = _Strip(across[:2], lo, hi, stop)
