@@ -40,20 +40,32 @@ def _compiled(**options):
 
 
 @_compiled()
-def union_counts(tris: np.ndarray, r0: np.ndarray, r1: np.ndarray, starts: np.ndarray,
-                 width: int) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
-    """Pixels covered by each set of positively wound triangles.
+def union_counts(tris: np.ndarray, sizes: np.ndarray, width: int,
+                 height: int) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
+    """Pixels of a width x height image covered by each set of triangles, those wound positively
+    (twice their signed area above 1e-12) drawn.
 
-    ``tris`` (F, 3, 2) pixel coordinates, the sets' triangles one set after another from
-    ``starts`` (S + 1 offsets); ``r0``/``r1`` each triangle's first and past-last image row
-    whose centre it may cover. A row's span of a triangle is the pixel centres left of (or on)
+    ``tris`` (F, 3, 2) pixel coordinates, the sets' triangles one set after another, ``sizes``
+    (S,) each set's count. A triangle may cover the centres (row + 0.5) of the rows from
+    ceil(lowest y - 0.5) to floor(highest y - 0.5), clipped to the image. A row's span of a
+    triangle is the pixel centres left of (or on)
     every edge p -> q: each edge's line crosses the row at px + dx (y - py) / dy, bounding the
     span from the right where the edge goes down the image (dy > 0) and from the left where it
     goes up; a level edge (dy == 0) keeps the row only on its inner side. A set's spans are
     marked +1 at their first pixel and -1 past their last along the rows of the set's box, and
     a pixel is covered where the running sum is positive: overlaps count once.
     """
-    n_sets = len(starts) - 1
+    n_sets = len(sizes)
+    starts = np.zeros(n_sets + 1, np.int64)
+    for s in range(n_sets):
+        starts[s + 1] = starts[s] + sizes[s]
+    r0 = np.zeros(len(tris), np.int64)
+    r1 = np.zeros(len(tris), np.int64)  # a triangle not drawn covers no row
+    for t in range(len(tris)):
+        ax, ay, bx, by, cx, cy = tris[t, 0, 0], tris[t, 0, 1], tris[t, 1, 0], tris[t, 1, 1], tris[t, 2, 0], tris[t, 2, 1]
+        if (bx - ax) * (cy - ay) - (by - ay) * (cx - ax) > 1e-12:
+            r0[t] = int(min(max(np.ceil(min(ay, by, cy) - 0.5), 0.0), height))
+            r1[t] = int(min(max(np.floor(max(ay, by, cy) - 0.5) + 1, 0.0), height))
     counts = np.zeros(n_sets, np.int64)
     spans = 0
     for t in range(len(tris)):

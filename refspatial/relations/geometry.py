@@ -205,14 +205,5 @@ def covered_pixels_each(meshes: list[np.ndarray], width: int, height: int) -> li
     """
     if not meshes:
         return []
-    tris = np.concatenate(meshes)
-    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
-    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    drawn = area > 1e-12
-    tris = tris[drawn]  # a new C-ordered array, as the compiled loop reads it
-    set_of = np.repeat(np.arange(len(meshes)), [len(m) for m in meshes])[drawn]
-    starts = np.searchsorted(set_of, np.arange(len(meshes) + 1))  # each set's first triangle, then the end
-    # Rows whose centre (row + 0.5) lies within each triangle's height, clipped to the image.
-    r0 = np.clip(np.ceil(tris[..., 1].min(1) - 0.5), 0, height).astype(np.int64)
-    r1 = np.clip(np.floor(tris[..., 1].max(1) - 0.5) + 1, 0, height).astype(np.int64)
-    return union_counts(tris, r0, r1, starts, width).tolist()
+    tris = np.ascontiguousarray(np.concatenate(meshes), dtype=np.float64)
+    return union_counts(tris, np.array([len(m) for m in meshes], np.int64), width, height).tolist()
