@@ -306,22 +306,25 @@ def polygon_gap(a: np.ndarray, b: np.ndarray) -> float:  # pragma: no cover (com
 
 
 @_compiled()
+def _inside(x: float, y: float, normals: np.ndarray, offsets: np.ndarray,
+            grow: float) -> bool:  # pragma: no cover (compiled: coverage cannot see inside)
+    """p . normal - offset <= grow for every half-plane, the point rejected at the first it lies
+    beyond (a NaN coordinate is never inside, as in numpy's ``all``)."""
+    for k in range(len(offsets)):
+        if not (x * normals[k, 0] + y * normals[k, 1] - offsets[k] <= grow):
+            return False
+    return True
+
+
+@_compiled()
 def inside_planes(points: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
                   grow: float) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
-    """Whether each of (N, 2) points has p . normal - offset <= grow for every half-plane (K
-    outward unit normals, K offsets): inside the convex polygon they bound, grown by ``grow``.
-    A point is rejected at the first half-plane it lies beyond (a NaN coordinate is never inside,
-    as in numpy's ``all``), where the whole-array test worked out every point against every edge
-    of an outline with up to a hundred corners."""
+    """Whether each of (N, 2) points lies in every half-plane (K outward unit normals, K offsets):
+    inside the convex polygon they bound, grown by ``grow`` (``_inside``), where the whole-array
+    test worked out every point against every edge of an outline with up to a hundred corners."""
     out = np.empty(len(points), np.bool_)
     for i in range(len(points)):
-        x, y = points[i, 0], points[i, 1]
-        inside = True
-        for k in range(len(offsets)):
-            if not (x * normals[k, 0] + y * normals[k, 1] - offsets[k] <= grow):
-                inside = False
-                break
-        out[i] = inside
+        out[i] = _inside(points[i, 0], points[i, 1], normals, offsets, grow)
     return out
 
 
@@ -332,15 +335,8 @@ def inside_planes_grid(xs: np.ndarray, ys: np.ndarray, normals: np.ndarray, offs
     (len(ys), len(xs)) mask (rows follow y), without making the points."""
     out = np.empty((len(ys), len(xs)), np.bool_)
     for i in range(len(ys)):
-        y = ys[i]
         for j in range(len(xs)):
-            x = xs[j]
-            inside = True
-            for k in range(len(offsets)):
-                if not (x * normals[k, 0] + y * normals[k, 1] - offsets[k] <= grow):
-                    inside = False
-                    break
-            out[i, j] = inside
+            out[i, j] = _inside(xs[j], ys[i], normals, offsets, grow)
     return out
 
 

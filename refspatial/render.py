@@ -24,8 +24,8 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from .assets import MaterialSpec  # noqa: E402
-from .mjcf import COLLISION_GROUP, ROOM_GROUP, SpecOptions, build_spec, object_of_geom  # noqa: E402
 from .compiled import ids_upright, metres_upright  # noqa: E402
+from .mjcf import COLLISION_GROUP, ROOM_GROUP, SpecOptions, build_spec, object_of_geom  # noqa: E402
 from .scene import Camera, Scene  # noqa: E402
 
 SPARE_GEOMS = 64  # room in the abstract scene beyond the model's own geoms (lights, decor)

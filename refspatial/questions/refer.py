@@ -559,9 +559,7 @@ def _kept(view: ViewFacts, rel: Relation, head: int) -> tuple[int, int]:
     out once per view and relation, then cut to the head (every head under which the search meets
     a relation to an anchor asks the same verdicts of its own candidates; ``_head`` holds visible
     objects only)."""
-    anchors = rel.anchors
-    ids = (anchors[0].object_id,) if len(anchors) == 1 else tuple([a.object_id for a in anchors])
-    kept, undecided = _verdict_masks(view, rel.predicate, ids, rel.reverse)
+    kept, undecided = _verdict_masks(view, rel.predicate, tuple(a.object_id for a in rel.anchors), rel.reverse)
     return kept & head, undecided & head
 
 
