@@ -34,6 +34,7 @@ from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, Writer
 from refspatial import __version__
 
 from .crc import crc32
+from .png import encode_rgb
 from .record_schemas import GROUPS as _GROUPS
 from .record_schemas import IMAGE_TOPICS as _IMAGE_TOPICS
 from .record_schemas import JSON_TOPICS as _JSON_TOPICS
@@ -45,13 +46,12 @@ from .shard_index import read_metadata as _read_metadata
 from .shard_index import verify_data_crc as _verify_data_crc
 
 FIELDS = ("rgb", "depth", "seg")  # image fields a reader decodes only on request
-# The RGB PNG: stored deflate blocks (zlib level 0) after libpng's "sub" row filter; the shard's
+# The RGB PNG: stored deflate blocks after the "sub" row filter (``png.encode_rgb``); the shard's
 # zstd chunk compression then does the squeezing. On 960x540 textured renders this costs 9 ms a
-# record (PNG 3 ms, zstd 6 ms) where zlib level 3 with no filter cost 17 ms (PNG 16.5 ms, then
-# zstd finding nothing to gain), and the stored chunk is 8 % smaller (291 kB against 316 kB).
-# Pixels are lossless either way; a PNG copied out of a message is as large as the raw image.
-PNG_LEVEL = 0
-PNG_FILTER = cv2.IMWRITE_PNG_FILTER_SUB
+# record (PNG 3 ms through libpng, since 0.7 ms, zstd 6 ms) where zlib level 3 with no filter cost
+# 17 ms (PNG 16.5 ms, then zstd finding nothing to gain), and the stored chunk is 8 % smaller (291
+# kB against 316 kB). Pixels are lossless either way; a PNG copied out of a message is as large
+# as the raw image.
 ZSTD_LEVEL = 1
 
 
@@ -262,10 +262,7 @@ def _calibration(r: Record, stamp: Timestamp) -> bytes:
 
 
 def _png_message(rgb: np.ndarray, stamp: Timestamp) -> bytes:
-    bgr = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
-    ok, png = cv2.imencode(".png", bgr, [cv2.IMWRITE_PNG_COMPRESSION, PNG_LEVEL, cv2.IMWRITE_PNG_FILTER, PNG_FILTER])
-    if not ok:
-        raise ValueError("cv2.imencode could not write the rgb image as PNG")
+    png = np.frombuffer(encode_rgb(rgb), np.uint8)
     return _with_data(CompressedImage(timestamp=stamp), 2, png, CompressedImage(format="png", frame_id="camera"))
 
 
