@@ -432,3 +432,19 @@ def test_the_compiled_sector_sweep_equals_the_general_one(views, monkeypatch, la
                     assert np.array_equal(swept[1], general[1]) and np.array_equal(swept[2], general[2])
                     answers += 1
     assert answers >= 5 and nones >= 5
+
+
+def test_one_point_clearance_read_equals_the_array_read():
+    """``_cleared_at`` (a solve's answer point, in scalars) against ``_cleared`` (arrays): inside,
+    on and past every edge, far off, and not finite."""
+    from refspatial.relations.free_space import _cleared, _cleared_at
+
+    rng = np.random.default_rng(5)
+    clear = rng.random((54, 96)) < 0.5
+    points = np.concatenate([
+        rng.uniform(-20, 120, size=(4000, 2)),
+        [[0, 0], [96, 54], [95.999999, 53.999999], [-1e-12, 3], [3, -1e-12], [96, 0], [0, 54], [1e30, 5],
+         [-1e30, 5], [np.nan, 5], [5, np.inf], [-np.inf, 5]]])
+    with np.errstate(invalid="ignore"):  # numpy's cast of NaN and inf to integers
+        expected = _cleared(clear, points)
+    assert [_cleared_at(clear, p) for p in points] == expected.tolist()

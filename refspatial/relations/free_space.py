@@ -141,7 +141,7 @@ def _solve(v: ViewFacts, constraints: tuple[Constraint, ...]) -> FreeSpace | Non
     # picture): then use the nearest valid point.
     chosen = mean if np.linalg.norm(nearest - mean) <= CELL_M else nearest
     uv, _ = project(np.array([[*chosen, z]]), v.K, v.T_world_cam)
-    if not _cleared(image_clearance(v, support), uv)[0]:
+    if not _cleared_at(image_clearance(v, support), uv[0]):
         chosen = nearest
         uv, _ = project(np.array([[*chosen, z]]), v.K, v.T_world_cam)
     point = _normalised(v, uv[0])
@@ -525,7 +525,8 @@ class _Raster:
             self._known = np.zeros_like(self.free)
             if self.free.size <= ALL_AT_ONCE_CELLS:
                 self._work_out(v, np.nonzero(self.free))
-                return self._flags
+        if self.free.size <= ALL_AT_ONCE_CELLS:
+            return self._flags  # every free cell, and solves ask only free cells, is known
         todo = ~self._known[cells]
         if todo.any():
             self._work_out(v, (cells[0][todo], cells[1][todo]))
@@ -747,6 +748,16 @@ def _cleared(clear: np.ndarray, uv: np.ndarray) -> np.ndarray:
     out = np.zeros(len(uv), dtype=bool)
     out[ok] = clear[rows[ok], cols[ok]]
     return out
+
+
+def _cleared_at(clear: np.ndarray, uv: np.ndarray) -> bool:
+    """``_cleared`` of one point, in scalars (a solve asks it of its answer: 20 us as arrays). A
+    coordinate that is not finite is off the image, as numpy's cast leaves it."""
+    u, w = float(uv[0]), float(uv[1])
+    if not (math.isfinite(u) and math.isfinite(w)):
+        return False
+    col, row = math.floor(u), math.floor(w)
+    return 0 <= col < clear.shape[1] and 0 <= row < clear.shape[0] and bool(clear[row, col])
 
 
 def _unoccluded(v: ViewFacts, uv: np.ndarray, z: np.ndarray) -> np.ndarray:
