@@ -293,7 +293,7 @@ def anchored_refs(view: ViewFacts, target: ObjectFacts, steps: int, rng: np.rand
             continue
         head = _head(view, category, color)
         combos = _fitting_combinations(target.object_id, head, shapes, rng,
-                                       lambda kind: _scored_parts(view, target, head, kind, phrased, rng))
+                                       lambda kind: _scored_parts(view, target, head, kind, phrased, rng), view.cache)
         if not combos:
             view.cache[empty] = True
         # Choose the first part's predicate by the balance weights (rare relations up), so frequent
@@ -399,7 +399,7 @@ def _phrasebook():
 
 
 def _fitting_combinations(target: int, head: int, shapes, rng,
-                          parts_of: Callable[[str], list[_Part]]) -> list[tuple[_Part, ...]]:
+                          parts_of: Callable[[str], list[_Part]], memo: dict) -> list[tuple[_Part, ...]]:
     """Up to COMBOS_WANTED combinations of parts with a wanted shape that, by the candidate sets,
     pick only the target with no idle part, in random order (shapes in the order given). Parts are
     asked for by kind only when a shape needs them: chained kinds cost a search per object."""
@@ -416,12 +416,24 @@ def _fitting_combinations(target: int, head: int, shapes, rng,
         if size > COMBOS_CHECKED:  # keep a random share of each list so that the product fits
             keep = (COMBOS_CHECKED / size) ** (1 / len(lists))
             lists = [[x[int(i)] for i in rng.permutation(len(x))[:max(1, int(len(x) * keep))]] for x in lists]
-        fits = np.argwhere(_fits(1 << target, head, lists))
+            fits = np.argwhere(_fits(1 << target, head, lists))
+        else:
+            fits = _fitting_rows(target, head, shape, lists, memo)
         for row in fits[rng.permutation(len(fits))][:COMBOS_WANTED - len(found)].tolist():
             found.append(tuple(lists[k][i] for k, i in enumerate(row)))
         if len(found) >= COMBOS_WANTED:
             break
     return found
+
+
+def _fitting_rows(target: int, head: int, shape, lists, memo: dict) -> np.ndarray:
+    """``np.argwhere`` of ``_fits`` for a shape's whole part lists (memoised per view in ``memo``:
+    the lists are the view's memoised parts, and a third of the searches repeat one, a question's
+    later attempts asking again of the same target)."""
+    key = ("fits", target, head, shape, len(lists))
+    if key not in memo:
+        memo[key] = np.argwhere(_fits(1 << target, head, lists))
+    return memo[key]
 
 
 def _fits(target: int, head: int, lists: list[list[_Part]]) -> np.ndarray:
@@ -549,8 +561,19 @@ def _named_objects(relations: tuple[Relation, ...]) -> int:
     mask = 0
     for rel in relations:
         for a in rel.anchors:
-            mask |= 1 << a.object_id | _named_objects(a.relations)
+            mask |= _named_by_anchor(a)
     return mask
+
+
+def _named_by_anchor(anchor: Ref) -> int:
+    """The anchor's object and every object its own relations name, kept on the description once
+    worked out, as its hash is: the search asks it of every part it scores."""
+    try:
+        return anchor.__dict__["_named"]
+    except KeyError:
+        mask = 1 << anchor.object_id | _named_objects(anchor.relations)
+        object.__setattr__(anchor, "_named", mask)
+        return mask
 
 
 def _kept(view: ViewFacts, rel: Relation, head: int) -> tuple[int, int]:
