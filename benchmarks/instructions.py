@@ -7,11 +7,10 @@ On this shared machine the same code's CPU time moves by a tenth within minutes,
 one hour: a change worth 1 % cannot be seen by any clock here. Instructions can: valgrind's
 cachegrind counts every instruction a process executes, and with the hash seed, the address
 layout and the thread counts fixed (PYTHONHASHSEED=0, ``setarch -R``, one OpenBLAS and OpenCV
-thread) three runs of the same code agreed to 4,000 instructions in 8.9 billion. What remains is
-layout: importing one more module (the PNG writer, which these stages never call) moved their
-count by 0.5 %, so changes smaller than that are not told apart. Instructions are not time (a
-cache miss costs more than an add), but a change that only removes Python and numpy work shows
-there as it would in time.
+thread) three runs of the same code agreed to 4,000 instructions in 8.9 billion, and the same
+code in two checkout folders, or with one more module imported, within 0.03 %. Instructions are
+not time (a cache miss costs more than an add), but a change that only removes Python and numpy
+work shows there as it would in time.
 
 The scenes are composed, settled and rendered once, natively, by this environment's checkout and
 handed to both sides as a pickle (rendering under valgrind would take hours), so both count the
