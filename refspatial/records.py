@@ -47,11 +47,11 @@ from .shard_index import verify_data_crc as _verify_data_crc
 
 FIELDS = ("rgb", "depth", "seg")  # image fields a reader decodes only on request
 # The RGB PNG: stored deflate blocks after the "sub" row filter (``png.encode_rgb``); the shard's
-# zstd chunk compression then does the squeezing. On 960x540 textured renders this costs 9 ms a
-# record (PNG 3 ms through libpng, since 0.7 ms, zstd 6 ms) where zlib level 3 with no filter cost
-# 17 ms (PNG 16.5 ms, then zstd finding nothing to gain), and the stored chunk is 8 % smaller (291
-# kB against 316 kB). Pixels are lossless either way; a PNG copied out of a message is as large
-# as the raw image.
+# zstd chunk compression then does the squeezing. On 960x540 textured renders this costs 7 ms a
+# record (the PNG 0.7 ms, 3 through libpng; zstd 6 ms) where zlib level 3 with no filter cost 17 ms
+# (PNG 16.5 ms, then zstd finding nothing to gain), and the stored chunk is 8 % smaller (291 kB
+# against 316 kB). Pixels are lossless either way; a PNG copied out of a message is as large as
+# the raw image.
 ZSTD_LEVEL = 1
 
 

@@ -753,10 +753,10 @@ def _cleared(clear: np.ndarray, uv: np.ndarray) -> np.ndarray:
 def _cleared_at(clear: np.ndarray, uv: np.ndarray) -> bool:
     """``_cleared`` of one point, in scalars (a solve asks it of its answer: 20 us as arrays). A
     coordinate that is not finite is off the image, as numpy's cast leaves it."""
-    u, w = float(uv[0]), float(uv[1])
-    if not (math.isfinite(u) and math.isfinite(w)):
+    x, y = float(uv[0]), float(uv[1])
+    if not (math.isfinite(x) and math.isfinite(y)):
         return False
-    col, row = math.floor(u), math.floor(w)
+    col, row = math.floor(x), math.floor(y)
     return 0 <= col < clear.shape[1] and 0 <= row < clear.shape[0] and bool(clear[row, col])
 
 
