@@ -475,3 +475,25 @@ def test_a_weighted_draw_is_numpys_cumulative_search():
         cumulative = np.cumsum(weights)
         assert got == int(np.searchsorted(cumulative, rng.random() * cumulative[-1], side="right"))
         assert rng.bit_generator.state == after
+
+
+def test_memoised_fitting_rows_ask_the_same_questions(monkeypatch):
+    """The description search keeps each shape's fitting rows per view; worked out afresh at every
+    search instead, every question of every family comes out the same."""
+    from refspatial.questions import refer
+
+    def asked(seed):
+        other = view(*MUGS.objects)
+        return questions_for_view(view(*MUGS.objects), {**SPEC, "per_view": 40}, np.random.default_rng(seed), "k",
+                                  ("k0", other))
+
+    memoised = [asked(seed) for seed in range(3)]
+    calls = []
+
+    def afresh(target, head, shape, lists, memo):
+        calls.append((target, head, shape))
+        return np.argwhere(refer._fits(1 << target, head, lists))
+
+    monkeypatch.setattr(refer, "_fitting_rows", afresh)
+    assert [asked(seed) for seed in range(3)] == memoised
+    assert len(calls) > len(set(calls))  # searches did repeat, so the memo was used above

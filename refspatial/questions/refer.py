@@ -78,6 +78,12 @@ class Ref:
             object.__setattr__(self, "_hash", h)
             return h
 
+    @functools.cached_property  # kept beside the hash: the search asks it of every part it scores
+    def named(self) -> int:
+        """Bit mask of this object and every object its own relations name, down through chains:
+        what naming it as an anchor names."""
+        return 1 << self.object_id | _named_objects(self.relations)
+
     @property
     def steps(self) -> int:
         return max(1, _relation_steps(self.relations))
@@ -432,7 +438,7 @@ def _fitting_rows(target: int, head: int, shape, lists, memo: dict) -> np.ndarra
     """``np.argwhere`` of ``_fits`` for a shape's whole part lists (memoised per view in ``memo``:
     the lists are the view's memoised parts, and a third of the searches repeat one, a question's
     later attempts asking again of the same target)."""
-    key = ("fits", target, head, shape, len(lists))
+    key = ("fits", target, head, shape)
     if key not in memo:
         memo[key] = np.argwhere(_fits(1 << target, head, lists))
     return memo[key]
@@ -563,19 +569,8 @@ def _named_objects(relations: tuple[Relation, ...]) -> int:
     mask = 0
     for rel in relations:
         for a in rel.anchors:
-            mask |= _named_by_anchor(a)
+            mask |= a.named
     return mask
-
-
-def _named_by_anchor(anchor: Ref) -> int:
-    """The anchor's object and every object its own relations name, kept on the description once
-    worked out, as its hash is: the search asks it of every part it scores."""
-    try:
-        return anchor.__dict__["_named"]
-    except KeyError:
-        mask = 1 << anchor.object_id | _named_objects(anchor.relations)
-        object.__setattr__(anchor, "_named", mask)
-        return mask
 
 
 def _kept(view: ViewFacts, rel: Relation, head: int) -> tuple[int, int]:

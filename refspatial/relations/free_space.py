@@ -519,13 +519,14 @@ class _Raster:
         A table top or shelf board holds at most a few ten thousand free cells, and the solves
         of a view look at most of them (two thirds on tabletops): there every free cell is worked
         out at the first call, in one pass instead of a dozen."""
+        at_once = self.free.size <= ALL_AT_ONCE_CELLS
         if self._flags is None:
             self._flags = (np.zeros_like(self.free), np.zeros_like(self.free),
                            shared(("roomy_raster", self._world), self._roomy))
             self._known = np.zeros_like(self.free)
-            if self.free.size <= ALL_AT_ONCE_CELLS:
+            if at_once:
                 self._work_out(v, np.nonzero(self.free))
-        if self.free.size <= ALL_AT_ONCE_CELLS:
+        if at_once:
             return self._flags  # every free cell, and solves ask only free cells, is known
         todo = ~self._known[cells]
         if todo.any():
