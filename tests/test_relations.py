@@ -433,6 +433,26 @@ def test_polygon_gap_equals_the_brute_force_gap():
     assert _gap_between(square, square * 0.2 + 0.4) == 0.0  # one inside the other
 
 
+def test_boxes_meet_equals_the_whole_array_test():
+    # The compiled box test against numpy's reductions of both point sets, on boxes apart,
+    # crossing, nested and meeting exactly along an edge or at a corner.
+    from refspatial.relations.geometry import boxes_meet
+
+    def whole_array(a, b):
+        return bool(np.all(a.min(0) <= b.max(0)) and np.all(b.min(0) <= a.max(0)))
+
+    rng = np.random.default_rng(12)
+    met = 0
+    for _ in range(400):
+        a, b = _random_hulls(rng, (3, 40), 0.3, 6)
+        assert boxes_meet(a, b) == boxes_meet(b, a) == whole_array(a, b)
+        met += whole_array(a, b)
+    assert 50 < met < 350
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    for shift, meets in (([1.0, 0.0], True), ([1.0, 1.0], True), ([1.0 + 1e-12, 0.0], False), ([0.2, -0.9], True)):
+        assert boxes_meet(square, square + shift) is meets
+
+
 def test_inside_convex_equals_the_whole_array_test():
     # The compiled half-plane test (first plane a point lies beyond rejects it) against every
     # point tested against every edge at once, grown and shrunk, with NaN points never inside.

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..compiled import clip_polygon, inside_planes, inside_planes_grid, polygon_gap, union_counts
+from ..compiled import boxes_meet, clip_polygon, inside_planes, inside_planes_grid, polygon_gap, union_counts
 
 
 def _next(a: np.ndarray) -> np.ndarray:
@@ -37,12 +37,6 @@ def clip_convex(subject: np.ndarray, clipper: np.ndarray) -> np.ndarray:
     """Intersection of two convex polygons (Sutherland-Hodgman, edge by edge: ``compiled.clip_polygon``)."""
     return clip_polygon(np.ascontiguousarray(ccw(subject), dtype=np.float64),
                         np.ascontiguousarray(ccw(clipper), dtype=np.float64))
-
-
-def boxes_meet(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether two point sets' axis-aligned bounding boxes touch or overlap: when they do not,
-    neither do the polygons, and most pairs in a scene are decided by this alone."""
-    return bool(np.all(a.min(0) <= b.max(0)) and np.all(b.min(0) <= a.max(0)))
 
 
 def overlap_share(a: np.ndarray, b: np.ndarray) -> float:
