@@ -35,6 +35,18 @@ def strip(steps):
     return [{k: v for k, v in n.items() if k != "result"} for n in steps]
 
 
+def test_point_coordinates_round_as_numpy_rounds():
+    # Every pixel centre of common frame sizes, rounded in Python floats, is the number (and the
+    # JSON text) numpy's round(x, 3) of the same centre gave, which records were written with.
+    from refspatial.questions.common import _thousandths
+
+    for size in (240, 256, 320, 480, 512, 540, 640, 720, 960, 1024, 1080, 1280, 1920):
+        for pixel in range(size):
+            want = round((np.int64(pixel) + 0.5) / size, 3)
+            got = _thousandths((pixel + 0.5) / size)
+            assert got == want and repr(got) == repr(float(want)), (pixel, size)
+
+
 def test_filter_and_ordinal_pick_one_object():
     assert run(Ref(0, "mug", "mug", "red", Ordinal("left_right", "left", 1)))[1][-1] == 0
     assert run(Ref(1, "mug", "mug", None, Ordinal("left_right", "left", 2)))[1][-1] == 1

@@ -146,12 +146,20 @@ def _draw_points(rows: np.ndarray, cols: np.ndarray, on_mask, n: int, rng: np.ra
     points: list[list[float]] = []
     for _ in range(n * POINT_TRIES):
         k = int(rng.integers(len(rows)))
-        x, y = round((cols[k] + 0.5) / w, 3), round((rows[k] + 0.5) / h, 3)
+        x, y = _thousandths((int(cols[k]) + 0.5) / w), _thousandths((int(rows[k]) + 0.5) / h)
         if on_mask(min(int(y * h), h - 1), min(int(x * w), w - 1)):
             points.append([x, y])
             if len(points) == n:
                 return points
     return None
+
+
+def _thousandths(v: float) -> float:
+    """``v`` rounded to 3 decimals as numpy rounds (scaled, rounded half to even, scaled back),
+    which a point's coordinates always were: here in Python floats (0.3 against 4.7 us a
+    coordinate through numpy's scalars; every pixel centre of common frame sizes rounds alike,
+    tests/test_questions.py)."""
+    return round(v * 1000.0) / 1000.0
 
 
 def format_points(points: list[list[float]]) -> str:
