@@ -242,17 +242,19 @@ def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
         return []
     options = []
     for axis, (key, low_end, _) in ORDINAL_AXES.items():
-        coords = np.array([key(view.objects[i]) for i in ids])
-        if not np.all(np.isfinite(coords)):
+        values = [key(view.objects[i]) for i in ids]
+        if not all(math.isfinite(c) for c in values):
             continue
-        ascending = sorted(ids, key=lambda i: key(view.objects[i]))
+        ascending = sorted(ids, key=dict(zip(ids, values)).__getitem__)
         high_end = {"left": "right", "front": "back", "near": "far"}[low_end]
+        spread = None  # the same for both ends: worked out once, and only for an axis that ranks the target
         for end, order in ((low_end, ascending), (high_end, ascending[::-1])):
             rank = order.index(target.object_id) + 1
             # Counted from the nearer end: "the third-closest" of three books is "the farthest",
             # and "the second from the right" of two mugs is "the leftmost" (annotator).
             if rank <= min(MAX_RANK, (len(ids) + 1) // 2):
-                spread = float(coords.std()) / (1.0 if axis != "depth" else 2.0)
+                if spread is None:
+                    spread = float(np.array(values).std()) / (1.0 if axis != "depth" else 2.0)
                 options.append((-spread, rank, Ordinal(axis, end, rank)))
     return [o for *_, o in sorted(options, key=lambda t: (t[0], t[1]))]
 
@@ -427,7 +429,7 @@ def _fitting_combinations(target: int, head: int, shapes, rng,
             fits = np.argwhere(_fits(1 << target, head, lists))
         else:
             fits = _fitting_rows(target, head, shape, lists, memo)
-        for row in fits[rng.permutation(len(fits))][:COMBOS_WANTED - len(found)].tolist():
+        for row in fits[rng.permutation(len(fits))[:COMBOS_WANTED - len(found)]].tolist():  # cut before gathering
             found.append(tuple(lists[k][i] for k, i in enumerate(row)))
         if len(found) >= COMBOS_WANTED:
             break
