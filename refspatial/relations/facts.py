@@ -98,7 +98,7 @@ class ObjectFacts:
         """(x, y) extents of the world box on the ground."""
         return self.aabb_world_m[1, :2] - self.aabb_world_m[0, :2]
 
-    @property
+    @cached_property  # the size predicates ask it of every pair, twice
     def footprint_sides_m(self) -> tuple[float, float] | None:
         """The oriented footprint's two side lengths, shorter first (None without a footprint)."""
         if self.footprint_world is None:

@@ -148,6 +148,15 @@ def thinner_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
 
 
 def _gap_and_scale(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, float]:
+    """The pair's gap and mean footprint size (memoised per pair, either order: near, far and the
+    distance between them ask it of each; every term is symmetric, the sum too)."""
+    key = ("gap_and_scale", *sorted((a.object_id, b.object_id)))
+    if key not in v.cache:
+        v.cache[key] = _worked_out_gap_and_scale(v, a, b)
+    return v.cache[key]
+
+
+def _worked_out_gap_and_scale(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> tuple[float, float]:
     gap = v.footprint_gap(a, b)
     # The height between their boxes counts wherever one is wholly above the other: a cup under
     # the vase on the board above is not near it, and a bowl on the floor is 1.08 m from a pen
