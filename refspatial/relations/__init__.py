@@ -45,11 +45,11 @@ def computed_relations(view: ViewFacts) -> list[dict]:
             groups = (g for g in groups if tuple(o.object_id for o in g) in maybe)
         for group in groups:
             value = pred(view, *group)
-            ids = [o.object_id for o in group]
             if pred.kind == "relation" and value is True:
-                out.append({"predicate": name, "objects": ids})
+                out.append({"predicate": name, "objects": [o.object_id for o in group]})
             elif pred.kind == "measure" and value is not None:
-                out.append({"predicate": name, "objects": ids, "value": round(value.value, 4), "unit": value.unit})
+                out.append({"predicate": name, "objects": [o.object_id for o in group], "value": round(value.value, 4),
+                            "unit": value.unit})
     return out
 
 

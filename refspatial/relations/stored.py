@@ -18,7 +18,8 @@ DIGITS = 6  # micrometres and micro-units: far below every threshold
 
 
 def rounded(values, digits: int = DIGITS) -> list[float]:
-    return [round(float(v), digits) for v in np.asarray(values, dtype=float).ravel()]
+    # ``tolist`` gives the same Python floats as ``float`` of each numpy element, in one call.
+    return [round(v, digits) for v in np.asarray(values, dtype=float).ravel().tolist()]
 
 
 def rounded_rows(rows, digits: int = DIGITS) -> list[list[float]]:
