@@ -8,8 +8,8 @@ row spans, and following every pixel of a free-space window down to the platform
 whole-array numpy steps each makes several passes over temporaries as big as the frame; as one
 loop each costs a third to a fifth of that. The others are small but asked often, where each
 numpy call costs more to set up than its arithmetic: a free-space sector's few thousand cells
-(some forty calls a solve), and containment in, clipping by and gaps between ground outlines of
-up to a hundred corners.
+(some forty calls a solve), and containment in, clipping by, gaps between and the boxes of ground
+outlines of up to a hundred corners.
 
 Each loop does the arithmetic of the numpy code it replaced, in the same IEEE operations and order
 (numba without ``fastmath`` neither reorders nor fuses them), so every count, mask and cell is the
@@ -266,7 +266,7 @@ def strip_answer(rows: np.ndarray, cols: np.ndarray, xs: np.ndarray, ys: np.ndar
 def boxes_meet(a: np.ndarray, b: np.ndarray) -> bool:  # pragma: no cover (compiled: coverage cannot see inside)
     """Whether the axis-aligned bounding boxes of two (N, 2) point sets touch or overlap: when
     they do not, neither do the polygons, and most pairs in a scene are told apart by this alone
-    (as numpy's eight reductions and comparisons it cost 17 us a pair)."""
+    (numpy's reductions and comparisons took 23 us a pair of outlines, this 0.7 us)."""
     return (a[:, 0].min() <= b[:, 0].max() and a[:, 1].min() <= b[:, 1].max()
             and b[:, 0].min() <= a[:, 0].max() and b[:, 1].min() <= a[:, 1].max())
 
