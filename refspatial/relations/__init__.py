@@ -45,11 +45,13 @@ def computed_relations(view: ViewFacts) -> list[dict]:
             groups = (g for g in groups if tuple(o.object_id for o in g) in maybe)
         for group in groups:
             value = pred(view, *group)
-            if pred.kind == "relation" and value is True:
-                out.append({"predicate": name, "objects": [o.object_id for o in group]})
-            elif pred.kind == "measure" and value is not None:
-                out.append({"predicate": name, "objects": [o.object_id for o in group], "value": round(value.value, 4),
-                            "unit": value.unit})
+            listed = value is True if pred.kind == "relation" else value is not None  # else a measure
+            if not listed:
+                continue  # the id list is made only for what is listed
+            entry = {"predicate": name, "objects": [o.object_id for o in group]}
+            if pred.kind == "measure":
+                entry.update(value=round(value.value, 4), unit=value.unit)
+            out.append(entry)
     return out
 
 

@@ -527,7 +527,7 @@ class _Raster:
             if at_once:
                 self._work_out(v, np.nonzero(self.free))
         if at_once:
-            return self._flags  # every free cell, and solves ask only free cells, is known
+            return self._flags  # every free cell is known, and solves ask only free cells
         todo = ~self._known[cells]
         if todo.any():
             self._work_out(v, (cells[0][todo], cells[1][todo]))
