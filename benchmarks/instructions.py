@@ -47,6 +47,11 @@ from refspatial.seeding import stage_rng
 from refspatial.shard_job import rarer_collections
 name, rendered = pickle.load(open(sys.argv[1], "rb"))
 recipe, n = load_recipe(name), int(sys.argv[2])
+# A worker's shape bank keeps each mesh's box and volume once made; the unpickled meshes are new, so
+# they are made here, in the loading that every count subtracts, not in the stages counted.
+for scene, _ in rendered:
+    for obj in scene.objects:
+        obj.asset.visual.bounds_m, obj.asset.visual.volume_m3
 with rarer_collections():  # the garbage collector as a worker sets it
     for scene, views in rendered[:n]:
         shapes = posed_shapes(scene)
