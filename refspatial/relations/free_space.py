@@ -270,19 +270,30 @@ def _strip(v: ViewFacts, c: Constraint, support: int, z: float) -> _Strip:
     again by the questions."""
     key = ("free_strip", c.anchors[0], c.direction, support)
     if key not in v.cache:
-        a, axis = v.objects[c.anchors[0]], direction_axis(v, c.direction)
-        along, across = np.array([*axis, 0.0]), np.array([-axis[1], axis[0], 0.0])
-        lo, hi = a.interval_along(across)
-        edge = a.interval_along(along)[1]
+        across, sides = _sides(v, c.direction)
+        lo, hi, _, edge = sides[c.anchors[0]]
         stop = np.inf
         for o in _obstacles(v, support, z):
-            if o.object_id == a.object_id:
+            if o.object_id == c.anchors[0]:
                 continue
-            o_lo, o_hi = o.interval_along(across)
-            start = o.interval_along(along)[0]
+            o_lo, o_hi, start, _ = sides[o.object_id]
             if o_hi > lo and o_lo < hi and start >= edge:
                 stop = min(stop, start)
-        v.cache[key] = _Strip(across[:2], lo, hi, stop)
+        v.cache[key] = _Strip(across, lo, hi, stop)
+    return v.cache[key]
+
+
+def _sides(v: ViewFacts, direction: str) -> tuple[np.ndarray, dict[int, tuple[float, float, float, float]]]:
+    """The ground-plane unit vector across a viewer-frame direction, and every object's extent
+    across it and along the direction, (low, high) each (memoised per view: every strip reads
+    every obstacle's, some 40 a record, where asking each object in turn cost a third of a
+    sector solve)."""
+    key = ("free_sides", direction)
+    if key not in v.cache:
+        axis = direction_axis(v, direction)
+        along, across = np.array([*axis, 0.0]), np.array([-axis[1], axis[0], 0.0])
+        v.cache[key] = across[:2], {o.object_id: (*o.interval_along(across), *o.interval_along(along))
+                                    for o in v.objects}
     return v.cache[key]
 
 
@@ -356,21 +367,29 @@ def _reach(v: ViewFacts, anchor: int, direction: str) -> _Reach:
 def _grid(v: ViewFacts, constraints, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(first, last) (x, y) indices of the 1 cm lattice cells (fixed to the world origin, so that
     every question on a platform shares one obstacle raster) inside the platform's box and the
-    region's box."""
-    lo, hi = polygon.min(0), polygon.max(0)
+    region's box. Worked out in Python floats (the same operations as on arrays, so the same
+    numbers): every solve asks it, and the dozen calls on two-element arrays cost more than a
+    sector's compiled sweep."""
+    xs, ys = polygon.T.tolist()
+    x0, y0, x1, y1 = min(xs), min(ys), max(xs), max(ys)
     for c in constraints:  # shrink the grid to the region's box when one is known
         if c.kind == "sector":
-            box = _reach(v, c.anchors[0], c.direction).sector_box
-            lo, hi = np.maximum(lo, box[0]), np.minimum(hi, box[1])
+            (bx0, by0), (bx1, by1) = _reach(v, c.anchors[0], c.direction).sector_box.tolist()
         elif c.kind == "offset":
             reach = _reach(v, c.anchors[0], c.direction)
             r = reach.half + reach.radius + (c.offset_m or 0.0)
-            lo, hi = np.maximum(lo, reach.centre - r), np.minimum(hi, reach.centre + r)
+            cx, cy = reach.centre.tolist()
+            bx0, by0, bx1, by1 = cx - r, cy - r, cx + r, cy + r
         elif c.kind == "between":  # within the hull of the anchors' footprints: a room's floor is metres wide
-            corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
-            lo, hi = np.maximum(lo, corners.min(0)), np.minimum(hi, corners.max(0))
-    first, last = np.ceil(lo / CELL_M - 0.5).astype(int), np.floor(hi / CELL_M - 0.5).astype(int)
-    return first, np.maximum(last, first - 1)  # an empty box has last = first - 1
+            cx, cy = np.concatenate([v.objects[i].footprint_world for i in c.anchors]).T.tolist()
+            bx0, by0, bx1, by1 = min(cx), min(cy), max(cx), max(cy)
+        else:
+            continue
+        x0, y0, x1, y1 = max(x0, bx0), max(y0, by0), min(x1, bx1), min(y1, by1)
+    first = (math.ceil(x0 / CELL_M - 0.5), math.ceil(y0 / CELL_M - 0.5))
+    last = (math.floor(x1 / CELL_M - 0.5), math.floor(y1 / CELL_M - 0.5))
+    # an empty box has last = first - 1
+    return np.array(first), np.array([max(last[0], first[0] - 1), max(last[1], first[1] - 1)])
 
 
 def _cell_axes(first: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -594,11 +613,15 @@ def _roomy_exact(v: ViewFacts, points: np.ndarray, support: int, z: float) -> np
     return keep
 
 
-def _obstacles(v: ViewFacts, support: int, z: float) -> list[ObjectFacts]:
+def _obstacles(v: ViewFacts, support: int, z: float) -> tuple[ObjectFacts, ...]:
     """Every object, seen or not, occupying the space just above a platform at height z: the
-    platform itself is not one, nor is anything on a shelf board below or above."""
-    return [o for o in v.objects if o.object_id != support
-            and o.aabb_world_m[0, 2] < z + OBSTACLE_BAND_M and o.aabb_world_m[1, 2] > z + OBSTACLE_MIN_TOP_M]
+    platform itself is not one, nor is anything on a shelf board below or above (memoised per
+    view: every strip and raster asks)."""
+    key = ("free_obstacles", support, z)
+    if key not in v.cache:
+        v.cache[key] = tuple(o for o in v.objects if o.object_id != support
+                             and o.aabb_world_m[0, 2] < z + OBSTACLE_BAND_M and o.aabb_world_m[1, 2] > z + OBSTACLE_MIN_TOP_M)
+    return v.cache[key]
 
 
 def image_clearance(v: ViewFacts, support: int) -> np.ndarray:
