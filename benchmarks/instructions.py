@@ -17,8 +17,11 @@ handed to both sides as a pickle (rendering under valgrind would take hours), so
 same relations and questions of the same views: view facts, the record's round trip, the relation
 table and every question. Each checkout first runs once under cachegrind uncounted (Python's
 bytecode cache, and numba's machine code for valgrind's virtual CPU, are written then), then
-counted, next to a run that only loads the same modules and pickle; the difference is the
-stages' count. Needs valgrind (``apt-get install valgrind``); about five minutes for four
+counted over one scene more than asked, next to a run over that first scene alone; the
+difference is the stages' count for the scenes after the first. A worker pays what happens once
+per process (numba loading a compiled loop's machine code: 67 million instructions for one loop,
+8 million a record over eight records) once in hundreds of records, so the first scene, which
+pays it here, is left out of both counts. Needs valgrind (``apt-get install valgrind``); about five minutes for four
 tabletop scenes (each checkout's runs take a minute and a half, two at a time).
 """
 
@@ -67,7 +70,7 @@ with rarer_collections():  # the garbage collector as a worker sets it
 
 def render(recipe_name: str, scenes: int, out: Path) -> int:
     """Compose, settle and render ``scenes`` scenes (seeds of base seed 0) into a pickle; returns
-    how many records they make (rejected scenes are left out)."""
+    how many records the scenes after the first make (rejected scenes are left out)."""
     os.environ.setdefault("MUJOCO_GL", "egl")
     from refspatial import pipeline
     from refspatial.assets import load_catalogue
@@ -84,11 +87,11 @@ def render(recipe_name: str, scenes: int, out: Path) -> int:
             continue
         rendered.append((scene, render_views(scene, catalogue.materials)))
     out.write_bytes(pickle.dumps((recipe_name, rendered)))
-    return sum(len(views) for _, views in rendered)
+    return sum(len(views) for _, views in rendered[1:])
 
 
 def count(tree: Path, script: Path, data: Path, scenes: int) -> int:
-    """Instructions of one run of the stages over the first ``scenes`` scenes (0: loading only)."""
+    """Instructions of one run of the stages over the first ``scenes`` scenes."""
     # One thread everywhere: under valgrind, idle OpenBLAS and OpenCV threads spin for a varying
     # number of instructions (runs differed by 0.2-1 %; alone, by a few thousand instructions).
     env = dict(os.environ, PYTHONPATH=str(tree), PYTHONHASHSEED="0", LP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
@@ -126,20 +129,20 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         data, script = Path(tmp) / "views.pkl", Path(tmp) / "stages.py"
         script.write_text(WORK)
-        records = render(args.recipe, args.scenes, data)
+        records = render(args.recipe, args.scenes + 1, data)
         trees = {"before": args.before.resolve(), "after": args.after.resolve()}
         with ThreadPoolExecutor(2) as pool:
             # Bytecode and numba's machine code are cached by a first run under valgrind, not
             # counted: valgrind's virtual CPU lacks some of this one's instructions (AVX-512),
             # so numba compiles its loops for it again, once (about 5 billion instructions).
-            list(pool.map(lambda tree: count(tree, script, data, args.scenes), trees.values()))
-            jobs = {(side, k): pool.submit(count, tree, script, data, args.scenes)
+            list(pool.map(lambda tree: count(tree, script, data, args.scenes + 1), trees.values()))
+            jobs = {(side, k): pool.submit(count, tree, script, data, args.scenes + 1)
                     for k in range(args.runs) for side, tree in trees.items()}
-            loading = {side: pool.submit(count, tree, script, data, 0) for side, tree in trees.items()}
+            first = {side: pool.submit(count, tree, script, data, 1) for side, tree in trees.items()}
             counts = {key: job.result() for key, job in jobs.items()}
-            base = {side: job.result() for side, job in loading.items()}
+            base = {side: job.result() for side, job in first.items()}
     print(f"recipe {args.recipe}: {records} records from {args.scenes} scenes; instructions of the relation and "
-          f"question stages (each run less a run that only loads), millions a record:")
+          f"question stages (each run less a run over the first scene alone), millions a record:")
     stages = {}
     for side in trees:
         runs = [(counts[(side, k)] - base[side]) / records / 1e6 for k in range(args.runs)]
