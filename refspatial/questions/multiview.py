@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..relations import ViewFacts
+from ..vector import angle_deg
 from .common import QA, make_qa, point_qa
 from .location import described_target
 from .phrases import Phrasebook
@@ -60,7 +61,7 @@ def heading_change_deg(first: ViewFacts, second: ViewFacts) -> float:
     n1, n2 = np.linalg.norm(f1), np.linalg.norm(f2)
     if n1 < 1e-9 or n2 < 1e-9:  # a camera looking straight down has no heading
         return 180.0
-    return float(np.degrees(np.arccos(np.clip(f1 @ f2 / (n1 * n2), -1.0, 1.0))))
+    return angle_deg(f1 @ f2 / (n1 * n2))
 
 
 def shared_objects(first: ViewFacts, second: ViewFacts) -> list[int]:

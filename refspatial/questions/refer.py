@@ -624,17 +624,21 @@ def holds_anything(view: ViewFacts, container: ObjectFacts) -> bool:
 
 def _binary_parts(view: ViewFacts, target: ObjectFacts, anchors: dict[int, Ref], phrased: set[str]):
     parts = []
+    objects = [(view.objects[aid], ref) for aid, ref in anchors.items()]
     for name in relation_predicates(phrased, 2):
+        # What depends on the predicate alone is settled once, not per anchor: every description
+        # search runs this for each target over every predicate and anchor (~10^3 tests a view).
         pred = PREDICATES[name]
-        for aid, ref in anchors.items():
-            anchor = view.objects[aid]
-            if name in SIDE_PREDICATES and not side_visible(view, anchor):
+        sided, outside = name in SIDE_PREDICATES, name == "outside"
+        reverse = pred.inverse is None and f"{name}:reverse" in phrased
+        for anchor, ref in objects:
+            if sided and not side_visible(view, anchor):
                 continue  # its named side cannot be seen here
-            if name == "outside" and not holds_anything(view, anchor):
+            if outside and not holds_anything(view, anchor):
                 continue  # "outside the empty pan" rules nothing out: a person reads it as nonsense
-            if _holds(view, name, [target, anchor]):
+            if pred(view, target, anchor) is True:
                 parts.append(Relation(name, (ref,)))
-            if pred.inverse is None and f"{name}:reverse" in phrased and _holds(view, name, [anchor, target]):
+            if reverse and pred(view, anchor, target) is True:
                 parts.append(Relation(name, (ref,), reverse=True))
     return parts
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..vector import length
+from ..vector import angle_deg, length
 from .facts import ObjectFacts, ViewFacts
 from .placement import MIN_FRONT_TILT
 
@@ -27,7 +27,7 @@ def front_to_camera_deg(view: ViewFacts, o: ObjectFacts) -> float | None:
     if length(front) < MIN_FRONT_TILT or length(to_camera) < 1e-6:
         return None
     cosine = front @ to_camera / (length(front) * length(to_camera))
-    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+    return angle_deg(cosine)
 
 
 def front_reads_two_ways(view: ViewFacts, o: ObjectFacts) -> bool:

@@ -20,7 +20,7 @@ from scipy.spatial import ConvexHull
 
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
-from ..vector import length
+from ..vector import column_bounds, length
 from .geometry import covered_pixels_each, gap_between, overlap_share, project
 from .masks import BOXES_KEY, PIXELS_KEY, PixelStats, box_of, object_boxes, pixel_stats
 
@@ -266,7 +266,7 @@ def posed_shapes(scene: Scene) -> tuple[PosedShape, ...]:
         T = obj.pose.matrix()
         asset = obj.asset
         verts = asset.visual.vertices_m @ T[:3, :3].T + T[:3, 3]
-        shape = PosedShape(T, verts, np.stack([verts.min(0), verts.max(0)]), _footprint(asset, T),
+        shape = PosedShape(T, verts, np.stack(column_bounds(verts)), _footprint(asset, T),
                            T[:3, :3] @ np.asarray(asset.front_local), _outline(verts))
         for a in (shape.pose, shape.verts, shape.aabb, shape.footprint, shape.front, shape.outline):
             a.flags.writeable = False

@@ -35,6 +35,7 @@ from scipy.spatial import ConvexHull
 
 from ..compiled import plane_cells, sector_cells, strip_answer
 from ..scene import LEG_HALF_M, LEG_INSET_M
+from ..vector import column_bounds
 from .directional import corridor, squarely_between
 from .facing import front_reads_two_ways
 from .facts import TABLE, ObjectFacts, ViewFacts
@@ -811,19 +812,27 @@ def _image_mask(v: ViewFacts, constraints, raster: _Raster, z: float, first: np.
     if len(uv) == 0:
         return mask
     c0, r0, c1, r1 = 0, 0, v.width, v.height  # a cell reaching behind the camera: any pixel may see it
-    if np.all(depth > 0):
-        c0, r0 = np.clip(np.floor(uv.min(0)).astype(int) - 1, 0, [v.width, v.height])
-        c1, r1 = np.clip(np.ceil(uv.max(0)).astype(int) + 1, 0, [v.width, v.height])
-    # World direction of each pixel's ray, scaled so that its camera-frame z is 1: the depth at
-    # which it meets the plane is then comparable with the depth image (``plane_cells``).
-    M, t = v.T_world_cam[:3, :3] @ np.linalg.inv(v.K), np.ascontiguousarray(v.T_world_cam[:3, 3])
-    window, at, x, y = plane_cells(v.depth_m, int(r0), int(c0), int(r1 - r0), int(c1 - c0), M, t, float(z),
-                                   CELL_M, OCCLUSION_M, lo, codes)
+    if np.all(depth > 0):  # the corners' pixel box, a pixel wider each way, inside the frame
+        (u0, w0), (u1, w1) = (b.tolist() for b in column_bounds(uv))
+        c0, r0 = min(max(math.floor(u0) - 1, 0), v.width), min(max(math.floor(w0) - 1, 0), v.height)
+        c1, r1 = min(max(math.ceil(u1) + 1, 0), v.width), min(max(math.ceil(w1) + 1, 0), v.height)
+    M, t = _pixel_rays(v)
+    window, at, x, y = plane_cells(v.depth_m, r0, c0, r1 - r0, c1 - c0, M, t, float(z), CELL_M, OCCLUSION_M, lo, codes)
     keep = window == WHOLE
     edge = window.ravel()[at] == EDGE  # pixels in cells that cross the region's edge: tested one by one
     keep.ravel()[at[edge]] = _in_regions(v, constraints, np.column_stack([x[edge], y[edge]]))
     mask[r0:r1, c0:c1] = keep
     return mask
+
+
+def _pixel_rays(v: ViewFacts) -> tuple[np.ndarray, np.ndarray]:
+    """(M, t): the world direction of a pixel's ray is M (u, w, 1), scaled so that its camera-frame
+    z is 1 (the depth at which it meets a plane is then comparable with the depth image,
+    ``plane_cells``), and t the camera's position (memoised per view: every placement mask asks)."""
+    key = ("pixel_rays",)
+    if key not in v.cache:
+        v.cache[key] = v.T_world_cam[:3, :3] @ np.linalg.inv(v.K), np.ascontiguousarray(v.T_world_cam[:3, 3])
+    return v.cache[key]
 
 
 WHOLE, EDGE = 1, 2  # cell codes; 0 is a cell that is not free or lies outside the region

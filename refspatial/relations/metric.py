@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..vector import length
+from ..vector import angle_deg, length
 from .facts import ObjectFacts, ViewFacts
 from .geometry import polygon_area, project, widths
 from .registry import Quantity, Verdict, compare, predicate
@@ -242,7 +242,7 @@ def angle_between(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Quantity | No
     ra, rb = _ray(v, a), _ray(v, b)
     if ra is None or rb is None:
         return None
-    return Quantity(float(np.degrees(np.arccos(np.clip(ra @ rb, -1.0, 1.0)))), "deg")
+    return Quantity(angle_deg(ra @ rb), "deg")
 
 
 @predicate("rotate_horizontal", family="rotation", arity=1, frame="camera", kind="measure")

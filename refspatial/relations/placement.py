@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..vector import length
+from ..vector import angle_deg, length
 from .facts import TABLE, ObjectFacts, ViewFacts
 from .geometry import project
 from .registry import Verdict, predicate
@@ -38,7 +38,7 @@ def _side_angle(a: ObjectFacts, b: ObjectFacts) -> float | None:
     if length(to_a) < 1e-6:
         return None
     cosine = front @ to_a / (length(front) * length(to_a))
-    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+    return angle_deg(cosine)
 
 
 def _within(angle: float | None, near: float, far: float) -> Verdict:
