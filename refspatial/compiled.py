@@ -405,3 +405,36 @@ def label_boxes(labels: np.ndarray, count: int) -> np.ndarray:  # pragma: no cov
                 out[k, 2] = min(out[k, 2], c)
                 out[k, 3] = max(out[k, 3], c + 1)
     return out
+
+
+@_compiled()
+def object_pixels(seg: np.ndarray, depth: np.ndarray, rgb: np.ndarray, r0: int, r1: int, c0: int, c1: int,
+                  object_id: int):  # pragma: no cover (compiled: coverage cannot see inside)
+    """One pass over an object's box (rows r0..r1, columns c0..c1, ends excluded): its pixel
+    count, the sums of their rows and of their columns, of each colour channel (``rgb`` may have
+    no rows: then 0) and their median depth, as numpy's median has it for float32 (the middle
+    value, or the mean of the two middle ones, summed in the depths' precision; NaN when there is
+    no pixel). Every sum is a whole number, so it is exact in any order."""
+    n, row_sum, col_sum = 0, 0, 0
+    red, green, blue = 0, 0, 0
+    values = np.empty((r1 - r0) * (c1 - c0), depth.dtype)
+    colours = rgb.shape[0] > 0
+    for i in range(r0, r1):
+        for j in range(c0, c1):
+            if seg[i, j] == object_id:
+                values[n] = depth[i, j]
+                n += 1
+                row_sum += i
+                col_sum += j
+                if colours:
+                    red += rgb[i, j, 0]
+                    green += rgb[i, j, 1]
+                    blue += rgb[i, j, 2]
+    median = np.nan
+    if n > 0:
+        k = n // 2
+        ordered = np.partition(values[:n], k)
+        median = ordered[k]
+        if n % 2 == 0:  # and the largest below it, the (k - 1)-th smallest: their sum in the depths'
+            median = (ordered[:k].max() + median) / 2  # own precision, halved (exactly, in float64)
+    return n, row_sum, col_sum, red, green, blue, median

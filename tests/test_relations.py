@@ -326,6 +326,27 @@ def test_pixel_stats_equal_the_gathered_pixels_statistics():
         assert stats.depth_m == float(np.median(depth[rows, cols]))
 
 
+def test_pixel_stats_median_is_numpys_for_even_odd_and_tied_depths():
+    """The compiled pass's median depth is numpy's to the bit: the middle value of an odd count,
+    the mean of the two middle ones (summed in the depths' own precision) of an even count, with
+    ties, for float32 and float64 depths, with and without a colour image."""
+    from refspatial.relations.masks import object_boxes, pixel_stats
+
+    rng = np.random.default_rng(8)
+    for trial in range(400):
+        h, w = rng.integers(1, 25, 2)
+        seg = rng.integers(-1, 4, (h, w)).astype(np.int32)
+        depth = rng.uniform(0.2, 9.0, (h, w)).astype(np.float32 if trial % 3 else np.float64)
+        if trial % 4 == 0:
+            depth = np.round(depth, 1)  # ties
+        rgb = rng.integers(0, 256, (h, w, 3), dtype=np.uint8) if trial % 2 else None
+        boxes = object_boxes(seg)
+        for k in range(4):
+            rows, cols = np.nonzero(seg == k)
+            if len(rows):
+                assert pixel_stats(seg, depth, boxes, k, rgb).depth_m == float(np.median(depth[rows, cols]))
+
+
 def test_object_boxes_equal_find_objects_over_the_whole_frame():
     """The boxes found inside the box around every object are the whole frame's, ids missing
     from the frame, objects at its edges and a frame with no object included."""
