@@ -438,3 +438,57 @@ def object_pixels(seg: np.ndarray, depth: np.ndarray, rgb: np.ndarray, r0: int, 
         if n % 2 == 0:  # and the largest below it, the (k - 1)-th smallest: their sum in the depths'
             median = (ordered[:k].max() + median) / 2  # own precision, halved (exactly, in float64)
     return n, row_sum, col_sum, red, green, blue, median
+
+
+# Region kinds of ``in_regions``: what ``free_space.REGIONS`` tests, in its arithmetic.
+SECTOR, BETWEEN, ON_TOP, OFFSET = 0, 1, 2, 3
+
+
+@_compiled()
+def _in_every_region(x: float, y: float, kinds: np.ndarray, params: np.ndarray, spans: np.ndarray,
+                     normals: np.ndarray, offsets: np.ndarray) -> bool:  # pragma: no cover (compiled)
+    """Whether (x, y) lies in every region: a sector (params: apex x, y, unit axis x, y, radius,
+    cosine of the half-angle) holds p where, with r = p - apex, r . axis >= cosine |r|,
+    |r| <= radius and |r| > 1e-9; a between region is the convex polygon of the half-planes
+    normals[spans[k, 0]:spans[k, 1]] (``_inside``); an on-top region holds every point (the
+    platform is the shrunk top); an offset (params: target x, y, then the limit in the radius
+    column) holds p within the limit of the target."""
+    for k in range(len(kinds)):
+        kind = kinds[k]
+        if kind == SECTOR:
+            rx, ry = x - params[k, 0], y - params[k, 1]
+            dist = np.sqrt(rx * rx + ry * ry)
+            if not (rx * params[k, 2] + ry * params[k, 3] >= params[k, 5] * dist and dist <= params[k, 4]
+                    and dist > 1e-9):
+                return False
+        elif kind == BETWEEN:
+            lo, hi = spans[k, 0], spans[k, 1]
+            if not _inside(x, y, normals[lo:hi], offsets[lo:hi], 0.0):
+                return False
+        elif kind == OFFSET:
+            dx, dy = x - params[k, 0], y - params[k, 1]
+            if not np.sqrt(dx * dx + dy * dy) <= params[k, 4]:
+                return False
+    return True
+
+
+@_compiled()
+def in_regions(points: np.ndarray, kinds: np.ndarray, params: np.ndarray, spans: np.ndarray, normals: np.ndarray,
+               offsets: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
+    """``_in_every_region`` of each of (N, 2) points."""
+    out = np.empty(len(points), np.bool_)
+    for i in range(len(points)):
+        out[i] = _in_every_region(points[i, 0], points[i, 1], kinds, params, spans, normals, offsets)
+    return out
+
+
+@_compiled()
+def in_regions_grid(xs: np.ndarray, ys: np.ndarray, kinds: np.ndarray, params: np.ndarray, spans: np.ndarray,
+                    normals: np.ndarray, offsets: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled)
+    """``_in_every_region`` of every grid point (x, y), x from ``xs`` and y from ``ys``, as a
+    (len(ys), len(xs)) mask (rows follow y), without making the points."""
+    out = np.empty((len(ys), len(xs)), np.bool_)
+    for i in range(len(ys)):
+        for j in range(len(xs)):
+            out[i, j] = _in_every_region(xs[j], ys[i], kinds, params, spans, normals, offsets)
+    return out

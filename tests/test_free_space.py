@@ -192,6 +192,52 @@ def test_grown_regions_hold_every_point_near_the_region(views):
             assert not _in_regions(v, c, centre + np.array([[5.0, 5.0]]), grow=grow).any()
 
 
+def test_compiled_region_test_is_the_regions_definition(views):
+    """``_in_regions`` (compiled) answers what ``REGIONS``' numpy functions answer, point for point
+    and on grids, for every kind alone and combined, on random points and on points placed on
+    the regions' very edges (a sector's arc and sides, an offset's circle, a hull's edges), where
+    one differently rounded operation would show."""
+    from refspatial.compiled import in_regions_grid
+    from refspatial.relations.free_space import REGIONS, _in_regions, _reach, _region_arrays
+
+    rng = np.random.default_rng(11)
+    checked = 0
+    for v in views:
+        objs = v.askable()
+        ids = [o.object_id for o in objs]
+        cases = [(Constraint("sector", (i,), d),) for i in ids for d in DIRECTIONS]
+        cases += [(Constraint("offset", (i,), d, m),) for i in ids for d, m in zip(DIRECTIONS, (0.05, 0.1, 0.15, 0.2))]
+        cases += [(Constraint("between", (a, b)),) for a in ids for b in ids if a < b]
+        cases += [(Constraint("on_top", (i,)),) for i in ids]
+        cases += [(Constraint("between", (ids[0], ids[1])), Constraint("sector", (ids[2 % len(ids)],), "left")),
+                  (Constraint("sector", (ids[0],), "front"), Constraint("sector", (ids[1],), "right")), ()]
+        for c in cases:
+            centre = v.objects[c[0].anchors[0]].center_world_m[:2] if c else np.zeros(2)
+            points = [centre + rng.uniform(-0.5, 0.5, (3000, 2))]
+            for k in c:  # points on the region's boundary, to the last bit
+                if k.kind in ("sector", "offset"):
+                    reach = _reach(v, k.anchors[0], k.direction)
+                    turn = rng.uniform(-np.pi / 4, np.pi / 4, 400)
+                    axis = np.arctan2(reach.axis[1], reach.axis[0]) + turn
+                    r = reach.half + reach.radius if k.kind == "sector" else 0.015
+                    points.append(reach.centre + r * np.column_stack([np.cos(axis), np.sin(axis)]))
+                    points.append(reach.centre + rng.uniform(0, r, (400, 1)) * np.column_stack(
+                        [np.cos(axis[0] - turn[0] + np.pi / 4), np.sin(axis[0] - turn[0] + np.pi / 4)]))
+            points = np.concatenate(points)
+            expected = np.ones(len(points), bool)
+            for k in c:
+                expected &= REGIONS[k.kind](v, k, points)
+            assert np.array_equal(_in_regions(v, c, points), expected), c
+            xs, ys = np.sort(points[:60, 0]), np.sort(points[:60, 1])
+            grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+            want = np.ones(len(grid), bool)
+            for k in c:
+                want &= REGIONS[k.kind](v, k, grid)
+            assert np.array_equal(in_regions_grid(xs, ys, *_region_arrays(v, c)), want.reshape(len(ys), len(xs))), c
+            checked += len(points)
+    assert checked > 100_000
+
+
 @pytest.mark.parametrize("radius", [0.5, 1.0, 2 ** 0.5, 5.0, 19.2, 40.0])
 def test_far_from_equals_scipy_distance_transform(radius):
     """The clearance mask (rectangular dilations of a window) is scipy's whole-image transform to

@@ -33,7 +33,8 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
 
-from ..compiled import plane_cells, sector_cells, strip_answer
+from ..compiled import (BETWEEN, OFFSET, ON_TOP, SECTOR, in_regions, in_regions_grid, plane_cells, sector_cells,
+                        strip_answer)
 from ..scene import LEG_HALF_M, LEG_INSET_M
 from ..vector import column_bounds
 from .directional import corridor, squarely_between
@@ -424,11 +425,47 @@ def _sector_box(centre: np.ndarray, axis: np.ndarray, r: float) -> np.ndarray:
 def _in_regions(v: ViewFacts, constraints, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
     """Whether each point lies in every region. With ``grow`` > 0, a cheap superset instead:
     each region's bounding half-planes and circles moved out by ``grow`` metres, which holds
-    every point within ``grow`` of the region (and some more, near its corners)."""
-    keep = np.ones(len(points), dtype=bool)
-    for c in constraints:
-        keep &= REGIONS[c.kind](v, c, points, grow)
-    return keep
+    every point within ``grow`` of the region (and some more, near its corners).
+
+    The regions' own test (``grow`` 0) runs compiled (``compiled.in_regions``): the same
+    arithmetic as ``REGIONS``' functions, which define it (tested against them), in one pass
+    instead of a dozen numpy calls per region; placement masks ask it of thousands of points."""
+    if grow > 0:
+        keep = np.ones(len(points), dtype=bool)
+        for c in constraints:
+            keep &= REGIONS[c.kind](v, c, points, grow)
+        return keep
+    return in_regions(np.ascontiguousarray(points, dtype=np.float64), *_region_arrays(v, tuple(constraints)))
+
+
+_REGION_KINDS = {"sector": SECTOR, "between": BETWEEN, "on_top": ON_TOP, "offset": OFFSET}
+
+
+def _region_arrays(v: ViewFacts, constraints: tuple[Constraint, ...]):
+    """The regions as ``compiled.in_regions`` reads them: kinds, a row of numbers each, and the
+    between regions' half-planes (memoised per view: a mask and its solve ask again)."""
+    key = ("region_arrays", constraints)
+    if key not in v.cache:
+        params = np.zeros((len(constraints), 6))
+        spans = np.zeros((len(constraints), 2), np.int64)
+        normals, offsets, count = [np.zeros((0, 2))], [np.zeros(0)], 0
+        for k, c in enumerate(constraints):
+            if c.kind == "sector":
+                reach = _reach(v, c.anchors[0], c.direction)
+                params[k] = (*reach.centre, *reach.axis, reach.half + reach.radius, COS_HALF_SECTOR)
+            elif c.kind == "offset":  # ``_offset``'s target, in its own numpy steps
+                reach = _reach(v, c.anchors[0], c.direction)
+                params[k, :2] = reach.centre + (reach.half + c.offset_m) * reach.axis
+                params[k, 4] = CELL_M * 1.5
+            elif c.kind == "between":
+                planes = _between_planes(v, c)
+                normals.append(planes[0])
+                offsets.append(planes[1])
+                spans[k] = count, count + len(planes[1])
+                count += len(planes[1])
+        kinds = np.array([_REGION_KINDS[c.kind] for c in constraints], np.int64)
+        v.cache[key] = kinds, params, spans, np.concatenate(normals), np.concatenate(offsets)
+    return v.cache[key]
 
 
 def _sector(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
@@ -444,11 +481,16 @@ def _sector(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) 
 
 
 def _between(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
+    return inside_half_planes(points, _between_planes(v, c), grow=grow)
+
+
+def _between_planes(v: ViewFacts, c: Constraint) -> tuple[np.ndarray, np.ndarray]:
+    """The half-planes of the hull of both anchors' footprints."""
     key = ("between_hull", *sorted(c.anchors))
     if key not in v.cache:  # the mask and every solve with this pair ask again
         corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
         v.cache[key] = half_planes(corners[ConvexHull(corners).vertices])
-    return inside_half_planes(points, v.cache[key], grow=grow)
+    return v.cache[key]
 
 
 def _on_top(v: ViewFacts, c: Constraint, points: np.ndarray, grow: float = 0.0) -> np.ndarray:
@@ -846,8 +888,7 @@ def _cell_codes(v: ViewFacts, constraints, raster: _Raster, first: np.ndarray, l
     is within half a diagonal of it), and 0 elsewhere."""
     xs = np.arange(first[0], last[0] + 2) * CELL_M
     ys = np.arange(first[1], last[1] + 2) * CELL_M
-    inside = _in_regions(v, constraints, np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2))
-    inside = inside.reshape(len(ys), len(xs))
+    inside = in_regions_grid(xs, ys, *_region_arrays(v, tuple(constraints)))  # ``_in_regions`` of the grid
     whole = inside[:-1, :-1] & inside[:-1, 1:] & inside[1:, :-1] & inside[1:, 1:]
     centres = _cell_centres(first, last - first + 1)
     near = _in_regions(v, constraints, centres, grow=HALF_DIAGONAL_M).reshape(whole.shape)
