@@ -394,16 +394,22 @@ def label_boxes(labels: np.ndarray, count: int) -> np.ndarray:  # pragma: no cov
     out = np.full((count, 4), -1, np.int64)
     h, w = labels.shape
     for r in range(h):
-        for c in range(w):
-            k = labels[r, c]
+        c = 0
+        while c < w:
+            # A run of one label along the row: only its ends can widen the label's box, so the
+            # box is read and written once a run, not once a pixel (runs are tens of pixels long).
+            k, start = labels[r, c], c
+            c += 1
+            while c < w and labels[r, c] == k:
+                c += 1
             if k < 0 or k >= count:
                 continue
             if out[k, 0] < 0:
-                out[k, 0], out[k, 1], out[k, 2], out[k, 3] = r, r + 1, c, c + 1
+                out[k, 0], out[k, 1], out[k, 2], out[k, 3] = r, r + 1, start, c
             else:
                 out[k, 1] = r + 1
-                out[k, 2] = min(out[k, 2], c)
-                out[k, 3] = max(out[k, 3], c + 1)
+                out[k, 2] = min(out[k, 2], start)
+                out[k, 3] = max(out[k, 3], c)
     return out
 
 

@@ -364,6 +364,10 @@ def test_object_boxes_equal_find_objects_over_the_whole_frame():
             seg[0, int(rng.integers(0, 70))] = 3
             seg[int(rng.integers(0, 50)), -1] = 8
         assert object_boxes(seg) == ndimage.find_objects(seg + 1), trial
+    for trial in range(200):  # ragged masks: runs of every length along the rows, one pixel included
+        seg = rng.integers(-1, 6, (int(rng.integers(1, 30)), int(rng.integers(1, 30)))).astype(np.int32)
+        seg[rng.random(seg.shape) < trial / 200] = -1
+        assert object_boxes(seg) == ndimage.find_objects(seg + 1), trial
 
 
 def _clip_edge_by_edge(subject: np.ndarray, clipper: np.ndarray) -> np.ndarray:

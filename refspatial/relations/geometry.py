@@ -156,7 +156,10 @@ def _widths(poly: np.ndarray) -> tuple[float, float]:
     lengths = np.linalg.norm(edges, axis=1)
     normals = np.column_stack([edges[:, 1], -edges[:, 0]])[lengths > 0] / lengths[lengths > 0, None]
     shadows = poly @ normals.T
-    spans = np.linalg.norm(poly[:, None, :] - poly[None, :, :], axis=-1)
+    d = poly[:, None, :] - poly[None, :, :]
+    # ``np.linalg.norm(d, axis=-1)`` bit for bit (it sums the two squares in this order), at a fifth
+    # of the cost of reducing a last axis of two.
+    spans = np.sqrt(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1])
     return float((shadows.max(0) - shadows.min(0)).min()), float(spans.max())
 
 
