@@ -12,11 +12,10 @@ through OpenCV and Pillow).
 from __future__ import annotations
 
 import struct
-import zlib
 
 import numpy as np
 
-from .crc import crc32
+from .crc import adler32, crc32
 
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
 STORED_BLOCK = 0xFFFF  # the most bytes one stored deflate block holds
@@ -39,7 +38,7 @@ def encode_rgb(rgb: np.ndarray) -> bytes:
         block = raw[start:start + STORED_BLOCK]
         last = start + STORED_BLOCK >= len(raw)
         stream += (struct.pack("<BHH", last, len(block), len(block) ^ 0xFFFF), block)
-    stream.append(struct.pack(">I", zlib.adler32(raw)))
+    stream.append(struct.pack(">I", adler32(raw)))
     header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8 bits a sample, truecolour, no interlace
     return b"".join((SIGNATURE, *_chunk(b"IHDR", [header]), *_chunk(b"IDAT", stream), *_chunk(b"IEND", [])))
 

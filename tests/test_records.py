@@ -18,7 +18,7 @@ from mcap.reader import NonSeekingReader, make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
 import refspatial.records as records
-from refspatial.crc import crc32
+from refspatial.crc import adler32, crc32
 from refspatial.record_schemas import schema_bytes
 from refspatial.records import Record, ShardError, ShardReader, ShardWriter, sha256_file
 
@@ -167,18 +167,22 @@ def test_standard_mcap_readers_decode_every_topic(shard):
 
 @pytest.mark.skipif(sys.platform == "darwin" and platform.machine() == "x86_64", reason="isal has no wheel there")
 def test_crc32_comes_from_isal():
-    """The install brings the quicker CRC (a missing dependency would only show as a slower write)."""
-    assert crc32.__module__ == "isal.isal_zlib"
+    """The install brings the quicker checksums (a missing dependency would only show as a slower write)."""
+    assert crc32.__module__ == adler32.__module__ == "isal.isal_zlib"
 
 
 @settings(max_examples=60, deadline=None)
 @given(st.binary(max_size=5000), st.integers(0, 2**32 - 1), st.integers(0, 5000))
 def test_crc32_is_zlibs(data, start, cut):
     """The quicker CRC the shards are checked with is zlib's, whole and continued from any value,
-    so every MCAP reader's check agrees with ours."""
+    so every MCAP reader's check agrees with ours; so is the Adler-32 closing each RGB PNG's
+    zlib stream, which decoders check."""
     assert crc32(data) == zlib.crc32(data)
     assert crc32(data, start) == zlib.crc32(data, start)
     assert crc32(data[cut:], crc32(data[:cut])) == zlib.crc32(data)
+    assert adler32(data) == zlib.adler32(data)
+    assert adler32(data, start) == zlib.adler32(data, start)
+    assert adler32(data[cut:], adler32(data[:cut])) == zlib.adler32(data)
 
 
 def test_truncated_file_raises_shard_error(shard, tmp_path):
