@@ -43,8 +43,9 @@ def computed_relations(view: ViewFacts) -> list[dict]:
         if pred.candidates is not None:  # a relation: only its true groups are listed
             maybe = pred.candidates(view, objs)
             groups = (g for g in groups if tuple(o.object_id for o in g) in maybe)
+        pair = pred.arity == 2
         for group in groups:
-            value = pred(view, *group)
+            value = pred.pair(view, *group) if pair else pred(view, *group)  # the memo's quicker read for two
             listed = value is True if pred.kind == "relation" else value is not None  # else a measure
             if not listed:
                 continue  # the id list is made only for what is listed
