@@ -509,3 +509,21 @@ def test_memoised_fitting_rows_ask_the_same_questions(monkeypatch):
     monkeypatch.setattr(refer, "_fitting_rows", afresh)
     assert [asked(seed) for seed in range(3)] == memoised
     assert len(calls) > len(set(calls))  # searches did repeat, so the memo was used above
+
+
+def test_list_shuffles_draw_as_numpys_permutation():
+    """Description search shuffles small lists in place where it used ``rng.permutation``: the
+    same order from the same draws, the generator left in the same state (else every question
+    after would change)."""
+    from refspatial.questions.refer import _shuffled_range
+
+    for n in range(0, 100):
+        for seed in range(5):
+            a, b, c = (np.random.default_rng(seed) for _ in range(3))
+            items = [("shape", k) for k in range(n)]
+            expected = [items[k] for k in a.permutation(n).tolist()]
+            shuffled = list(items)
+            b.shuffle(shuffled)
+            assert shuffled == expected
+            assert list(_shuffled_range(n, c)) == [items.index(x) for x in expected]
+            assert a.random() == b.random() == c.random()
