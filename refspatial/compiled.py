@@ -3,13 +3,15 @@ compiled with numba.
 
 Some are passes over whole frames or windows that cost more as numpy steps than their
 arithmetic: turning the depth and segmentation read-backs into metres and object ids, each
-object's box in the segmentation, cutting a view's silhouettes (~8,000 projected triangles) into
-row spans, and following every pixel of a free-space window down to the platform plane. As
+object's box in the segmentation and the statistics of its pixels, cutting a view's silhouettes
+(~8,000 projected triangles) into row spans, and following every pixel of a free-space window
+down to the platform plane. As
 whole-array numpy steps each makes several passes over temporaries as big as the frame; as one
 loop each costs a third to a fifth of that. The others are small but asked often, where each
 numpy call costs more to set up than its arithmetic: a free-space sector's few thousand cells
-(some forty calls a solve), and containment in, clipping by, gaps between and the boxes of ground
-outlines of up to a hundred corners.
+(some forty calls a solve), the free-space regions' own test of a placement mask's points, and
+containment in, clipping by, gaps between and the boxes of ground outlines of up to a hundred
+corners.
 
 Each loop does the arithmetic of the numpy code it replaced, in the same IEEE operations and order
 (numba without ``fastmath`` neither reorders nor fuses them), so every count, mask and cell is the

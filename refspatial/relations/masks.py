@@ -71,9 +71,10 @@ def pixel_stats(seg: np.ndarray, depth_m: np.ndarray, boxes: list[Box | None], o
     The numbers are numpy's: its mean of integers sums them exactly in float64 and divides once
     by the count, so the exact integer sums divided by the count give the same bits (centroids
     from the pixels' row and column sums, the mean colour from the channel sums), and the median
-    is the same order statistic numpy's partition finds, halved in float32 between the two
-    middle values as numpy's mean of them is. The numpy steps (a mask, per-row and per-column
-    counts, OpenCV's masked sum, a gathered median) cost four times as long."""
+    is the order statistic numpy's partition finds, or for an even count the two middle values
+    summed in the depths' own precision and halved, as numpy's mean of them is. The numpy steps
+    (a mask, per-row and per-column counts, OpenCV's masked sum, a gathered median) took nearly
+    twice as long (1.41 against 0.77 ms for a record's six objects)."""
     box = box_of(boxes, object_id)
     if box is None:
         return PixelStats(0, float("inf"), None, None)
