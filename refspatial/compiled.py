@@ -500,3 +500,23 @@ def in_regions_grid(xs: np.ndarray, ys: np.ndarray, kinds: np.ndarray, params: n
         for j in range(len(xs)):
             out[i, j] = _in_every_region(xs[j], ys[i], kinds, params, spans, normals, offsets)
     return out
+
+
+@_compiled()
+def seen_and_cleared(uv: np.ndarray, z: np.ndarray, depth: np.ndarray, clear: np.ndarray,
+                     occlusion_m: float):  # pragma: no cover (compiled: coverage cannot see inside)
+    """For each projected point (pixel coordinates ``uv``, optical-axis depth ``z``) whose pixel
+    floor(uv) lies on the image: whether the rendered ``depth`` there is within ``occlusion_m``
+    of z, for z > 0 (seen), and whether ``clear`` holds that pixel (cleared); a point off the
+    image is neither. A coordinate that is not finite is off the image."""
+    n = len(uv)
+    h, w = depth.shape
+    seen = np.zeros(n, np.bool_)
+    cleared = np.zeros(n, np.bool_)
+    for i in range(n):
+        u, v = uv[i, 0], uv[i, 1]
+        if 0 <= u < w and 0 <= v < h:  # floor(u) in 0..w-1 exactly when u is in [0, w)
+            col, row = int(np.floor(u)), int(np.floor(v))
+            cleared[i] = clear[row, col]
+            seen[i] = z[i] > 0 and abs(np.float64(depth[row, col]) - z[i]) <= occlusion_m
+    return seen, cleared

@@ -494,3 +494,37 @@ def test_one_point_clearance_read_equals_the_array_read():
     with np.errstate(invalid="ignore"):  # numpy's cast of NaN and inf to integers
         expected = _cleared(clear, points)
     assert [_cleared_at(clear, p) for p in points] == expected.tolist()
+
+
+def test_compiled_view_flags_equal_the_array_definitions(monkeypatch):
+    """``compiled.seen_and_cleared`` (a view's first solve, every free cell at once) against
+    ``_unoccluded`` and ``_cleared``: depths within, exactly at and past the occlusion margin,
+    points behind the camera, inside, on and past every edge of the image, far off, and not finite."""
+    from types import SimpleNamespace
+
+    from refspatial.compiled import seen_and_cleared
+    from refspatial.relations import free_space
+    from refspatial.relations.free_space import _cleared, _unoccluded
+
+    # A margin of a power of two, so that a depth exactly that far from a rendered one exists:
+    # there the test tells <= from <.
+    margin = 2.0 ** -5
+    monkeypatch.setattr(free_space, "OCCLUSION_M", margin)
+    rng = np.random.default_rng(9)
+    depth = rng.uniform(0.5, 2.0, (54, 96)).astype(np.float32)
+    clear = rng.random((54, 96)) < 0.5
+    edges = [[96.0, k + 0.5] for k in range(54)] + [[k + 0.5, 54.0] for k in range(96)]  # just past the image
+    uv = np.concatenate([
+        rng.uniform(-20, 120, size=(4000, 2)), edges,
+        [[0, 0], [96, 54], [95.999999, 53.999999], [-1e-12, 3], [3, -1e-12], [-0.0, 3], [96, 0], [0, 54],
+         [1e30, 5], [-1e30, 5], [np.nan, 5], [5, np.inf], [-np.inf, 5]]])
+    cols, rows = np.clip(np.floor(np.nan_to_num(uv)), 0, [95, 53]).astype(int).T
+    z = depth[rows, cols] + rng.choice([0.0, margin, -margin, 0.04, -0.04, 1e-3], len(uv))
+    z[::7] *= -1  # behind the camera
+    z[::11] = 0.0
+    with np.errstate(invalid="ignore"):  # numpy's cast of NaN and inf to integers
+        expected = _unoccluded(SimpleNamespace(width=96, height=54, depth_m=depth), uv, z), _cleared(clear, uv)
+    seen, cleared = seen_and_cleared(uv, z, depth, clear, margin)
+    assert np.array_equal(seen, expected[0]) and np.array_equal(cleared, expected[1])
+    assert 0 < seen.sum() < len(uv) and 0 < cleared.sum() < len(uv)
+    assert (np.abs(depth[rows, cols] - z) == margin)[seen].any()  # some seen exactly at the margin

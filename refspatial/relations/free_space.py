@@ -34,7 +34,7 @@ from scipy.ndimage import distance_transform_edt
 from scipy.spatial import ConvexHull
 
 from ..compiled import (BETWEEN, OFFSET, ON_TOP, SECTOR, in_regions, in_regions_grid, plane_cells, sector_cells,
-                        strip_answer)
+                        seen_and_cleared, strip_answer)
 from ..scene import LEG_HALF_M, LEG_INSET_M
 from ..vector import column_bounds
 from .directional import corridor, squarely_between
@@ -601,8 +601,10 @@ class _Raster:
         rows, cols = cells
         centres = (np.column_stack([cols + self.first[0], rows + self.first[1]]) + 0.5) * CELL_M
         uv, depth = project(np.column_stack([centres, np.full(len(centres), self.z)]), v.K, v.T_world_cam)
-        seen[rows, cols] = _unoccluded(v, uv, depth)
-        cleared[rows, cols] = _cleared(image_clearance(v, self.support), uv)
+        # ``_unoccluded`` and ``_cleared`` of every cell in one compiled pass (a tabletop view's
+        # first solve asks about 9,000 cells: 256 -> 37 us).
+        seen[rows, cols], cleared[rows, cols] = seen_and_cleared(uv, depth, v.depth_m, image_clearance(v, self.support),
+                                                                 OCCLUSION_M)
         self._known[rows, cols] = True
 
     def _clear_of(self, cells: np.ndarray, outline: np.ndarray, grow: float) -> None:
@@ -808,7 +810,8 @@ def _disk_rectangles(n: int) -> tuple[tuple[int, int], ...]:
 
 
 def _cleared(clear: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Which image points (N, 2 pixels) fall on cleared pixels; points off the image do not."""
+    """Which image points (N, 2 pixels) fall on cleared pixels; points off the image do not (the
+    definition ``compiled.seen_and_cleared`` follows; tests compare them)."""
     cols, rows = np.floor(uv[:, 0]).astype(int), np.floor(uv[:, 1]).astype(int)
     h, w = clear.shape
     ok = (cols >= 0) & (cols < w) & (rows >= 0) & (rows < h)
@@ -828,7 +831,8 @@ def _cleared_at(clear: np.ndarray, uv: np.ndarray) -> bool:
 
 
 def _unoccluded(v: ViewFacts, uv: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Which projected points (pixels uv, optical-axis depths z) the rendered depth shows."""
+    """Which projected points (pixels uv, optical-axis depths z) the rendered depth shows (the
+    definition ``compiled.seen_and_cleared`` follows; tests compare them)."""
     cols, rows = np.floor(uv[:, 0]).astype(int), np.floor(uv[:, 1]).astype(int)
     ok = (z > 0) & (cols >= 0) & (cols < v.width) & (rows >= 0) & (rows < v.height)
     out = np.zeros(len(uv), dtype=bool)
