@@ -434,25 +434,11 @@ def _fitting_combinations(target: int, head: int, shapes, rng,
             fits = np.argwhere(_fits(1 << target, head, lists))
         else:
             fits = _fitting_rows(target, head, shape, lists, memo)
-        for row in fits[_shuffled_range(len(fits), rng)[:COMBOS_WANTED - len(found)]].tolist():  # cut before gathering
+        for row in fits[rng.permutation(len(fits))[:COMBOS_WANTED - len(found)]].tolist():  # cut before gathering
             found.append(tuple(lists[k][i] for k, i in enumerate(row)))
         if len(found) >= COMBOS_WANTED:
             break
     return found
-
-
-SMALL_SHUFFLE = 64  # up to this many, a list shuffles quicker than numpy makes a permutation
-
-
-def _shuffled_range(n: int, rng: np.random.Generator):
-    """``rng.permutation(n)``, the same order from the same draws (a list is swapped as the
-    permutation swaps its range), as a list where that is quicker: most searches find a few
-    dozen fitting combinations, and numpy's set-up cost more than the shuffle."""
-    if n > SMALL_SHUFFLE:
-        return rng.permutation(n)
-    order = list(range(n))
-    rng.shuffle(order)
-    return order
 
 
 def _fitting_rows(target: int, head: int, shape, lists, memo: dict) -> np.ndarray:
