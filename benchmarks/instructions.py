@@ -21,8 +21,8 @@ counted over one scene more than asked, next to a run over that first scene alon
 difference is the stages' count for the scenes after the first. A worker pays what happens once
 per process (numba loading a compiled loop's machine code: 67 million instructions for one loop,
 8 million a record over eight records) once in hundreds of records, so the first scene, which
-pays it here, is left out of both counts. Needs valgrind (``apt-get install valgrind``); about five minutes for four
-tabletop scenes (each checkout's runs take a minute and a half, two at a time).
+pays it here, is left out of both counts. Needs valgrind (``apt-get install valgrind``); about
+eight minutes for four tabletop scenes after the first (each checkout's runs two at a time).
 """
 
 from __future__ import annotations

@@ -480,10 +480,32 @@ def test_the_compiled_sector_sweep_equals_the_general_one(views, monkeypatch, la
     assert answers >= 5 and nones >= 5
 
 
+def _cleared(clear: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """The whole-array reading of the clearance mask the solver's compiled and scalar reads
+    follow: which image points (N, 2 pixels) fall on cleared pixels; points off the image do not."""
+    cols, rows = np.floor(uv[:, 0]).astype(int), np.floor(uv[:, 1]).astype(int)
+    h, w = clear.shape
+    ok = (cols >= 0) & (cols < w) & (rows >= 0) & (rows < h)
+    out = np.zeros(len(uv), dtype=bool)
+    out[ok] = clear[rows[ok], cols[ok]]
+    return out
+
+
+def _unoccluded(depth_m: np.ndarray, uv: np.ndarray, z: np.ndarray, margin: float) -> np.ndarray:
+    """The whole-array occlusion test the compiled one follows: which projected points (pixels uv,
+    optical-axis depths z) the rendered depth shows, within ``margin``."""
+    cols, rows = np.floor(uv[:, 0]).astype(int), np.floor(uv[:, 1]).astype(int)
+    h, w = depth_m.shape
+    ok = (z > 0) & (cols >= 0) & (cols < w) & (rows >= 0) & (rows < h)
+    out = np.zeros(len(uv), dtype=bool)
+    out[ok] = np.abs(depth_m[rows[ok], cols[ok]] - z[ok]) <= margin
+    return out
+
+
 def test_one_point_clearance_read_equals_the_array_read():
-    """``_cleared_at`` (a solve's answer point, in scalars) against ``_cleared`` (arrays): inside,
-    on and past every edge, far off, and not finite."""
-    from refspatial.relations.free_space import _cleared, _cleared_at
+    """``_cleared_at`` (a solve's answer point, in scalars) against the whole-array reading:
+    inside, on and past every edge, far off, and not finite."""
+    from refspatial.relations.free_space import _cleared_at
 
     rng = np.random.default_rng(5)
     clear = rng.random((54, 96)) < 0.5
@@ -496,20 +518,15 @@ def test_one_point_clearance_read_equals_the_array_read():
     assert [_cleared_at(clear, p) for p in points] == expected.tolist()
 
 
-def test_compiled_view_flags_equal_the_array_definitions(monkeypatch):
-    """``compiled.seen_and_cleared`` (a view's first solve, every free cell at once) against
-    ``_unoccluded`` and ``_cleared``: depths within, exactly at and past the occlusion margin,
+def test_compiled_view_flags_equal_the_array_definitions():
+    """``compiled.seen_and_cleared`` (a view's first solve, every free cell at once) against the
+    whole-array occlusion and clearance readings: depths within, exactly at and past the margin,
     points behind the camera, inside, on and past every edge of the image, far off, and not finite."""
-    from types import SimpleNamespace
-
     from refspatial.compiled import seen_and_cleared
-    from refspatial.relations import free_space
-    from refspatial.relations.free_space import _cleared, _unoccluded
 
     # A margin of a power of two, so that a depth exactly that far from a rendered one exists:
     # there the test tells <= from <.
     margin = 2.0 ** -5
-    monkeypatch.setattr(free_space, "OCCLUSION_M", margin)
     rng = np.random.default_rng(9)
     depth = rng.uniform(0.5, 2.0, (54, 96)).astype(np.float32)
     clear = rng.random((54, 96)) < 0.5
@@ -523,7 +540,7 @@ def test_compiled_view_flags_equal_the_array_definitions(monkeypatch):
     z[::7] *= -1  # behind the camera
     z[::11] = 0.0
     with np.errstate(invalid="ignore"):  # numpy's cast of NaN and inf to integers
-        expected = _unoccluded(SimpleNamespace(width=96, height=54, depth_m=depth), uv, z), _cleared(clear, uv)
+        expected = _unoccluded(depth, uv, z, margin), _cleared(clear, uv)
     seen, cleared = seen_and_cleared(uv, z, depth, clear, margin)
     assert np.array_equal(seen, expected[0]) and np.array_equal(cleared, expected[1])
     assert 0 < seen.sum() < len(uv) and 0 < cleared.sum() < len(uv)

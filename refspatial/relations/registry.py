@@ -58,8 +58,19 @@ class Predicate:
         # A lookup that may miss, not a caught KeyError: the relation table meets every verdict
         # first (a thousand misses a view), and raising cost ten times a lookup.
         value = view.cache.get(key, _UNKNOWN)
-        if value is not _UNKNOWN:
-            return value
+        return self._worked_out(view, objects, key) if value is _UNKNOWN else value
+
+    def pair(self, view: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Any:
+        """``self(view, a, b)`` of a two-object predicate: the memo read without the general call's
+        argument handling (the description search asks some 1,300 verdicts a record, nearly all
+        known already)."""
+        i, j = a.object_id, b.object_id
+        key = (self.name, j, i) if i > j and self._one_verdict_for_both_orders else (self.name, i, j)
+        value = view.cache.get(key, _UNKNOWN)
+        return self._worked_out(view, (a, b), key) if value is _UNKNOWN else value
+
+    def _worked_out(self, view: ViewFacts, objects: tuple[ObjectFacts, ...], key: tuple) -> Any:
+        """The value of a memo entry not yet made, made."""
         self._check(objects)
         # A predicate with an inverse answers what the inverse answers with the two objects swapped
         # (right_of(a, b) is left_of(b, a) by definition; test_relations checks every pair): a
@@ -73,15 +84,6 @@ class Predicate:
         value = None if len(set(key[1:])) != len(objects) else self.fn(view, *objects)
         view.cache[key] = value
         return value
-
-    def pair(self, view: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Any:
-        """``self(view, a, b)`` of a two-object predicate: the memo read without the general call's
-        argument handling (the description search asks some 1,300 verdicts a record, nearly all
-        known already)."""
-        i, j = a.object_id, b.object_id
-        key = (self.name, j, i) if i > j and self._one_verdict_for_both_orders else (self.name, i, j)
-        value = view.cache.get(key, _UNKNOWN)
-        return self(view, a, b) if value is _UNKNOWN else value
 
     def _check(self, objects: tuple[ObjectFacts, ...]) -> None:
         if len(objects) != self.arity:
