@@ -68,18 +68,21 @@ def verify(root: Path) -> Report:
 
 def _name_damaged_records(file: str, path: Path, report: Report) -> None:
     """Which records of a changed shard no longer read back (each chunk has its own CRC), so the
-    failure names them, not only the shard; the shard's index itself may be what broke."""
+    failure names them, not only the shard; the shard's index itself may be what broke. Each
+    record's key is read on its own: a damaged JSON chunk loses its record's key, not the others'."""
     try:
         reader = ShardReader(path)
-        keys = reader.keys()
     except ShardError as exc:
         report.fail(file, f"unreadable: {_cause(exc)}")
         return
-    for i, key in enumerate(keys):
+    for i in range(len(reader)):
+        key = None
         try:
+            key = reader.read(i, fields=())["key"]
             reader.read(i)
         except ShardError as exc:
-            report.fail(f"{file} record {i} ({key})", _cause(exc))
+            where = f"({key})" if key is not None else "(its key unreadable)"
+            report.fail(f"{file} record {i} {where}", _cause(exc))
 
 
 def _cause(exc: ShardError) -> str:

@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
 import shutil
 
@@ -11,6 +12,7 @@ from refspatial.annotate import rle_decode
 from refspatial.data import RefSpatialDataset
 from refspatial.questions.phrases import Phrasebook
 from refspatial.records import Record, ShardReader, ShardWriter, sha256_file
+from refspatial.shard_index import NS_PER_RECORD
 from refspatial.shards import generate
 from refspatial.verify import verify
 
@@ -109,16 +111,31 @@ def test_verify_names_the_damaged_records_of_a_changed_shard(tiny_dataset, tmp_p
     shutil.copytree(tiny_dataset, damaged)
     path = damaged / "shards" / "shard-00001.mcap"
     keys = ShardReader(path).keys()
+    with path.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    topics = {c.id: c.topic for c in summary.channels.values()}
+    # One byte flipped midway through the compressed messages of two chunks: the first record's
+    # RGB and the second record's JSON (its key with it). A fixed share of the file could land
+    # on a chunk's time fields instead, which no record reads.
     raw = bytearray(path.read_bytes())
-    raw[len(raw) // 3] ^= 0xFF  # inside the first record's chunks, well before the index
+    hit = {}
+    for chunk in summary.chunk_indexes:
+        record = chunk.message_start_time // NS_PER_RECORD - 1
+        kind = "rgb" if list(map(topics.get, chunk.message_index_offsets)) == ["/camera/rgb"] else (
+            "json" if "/scene" in map(topics.get, chunk.message_index_offsets) else None)
+        if (record, kind) in ((0, "rgb"), (1, "json")):
+            data_start = chunk.chunk_start_offset + chunk.chunk_length - chunk.compressed_size
+            raw[data_start + chunk.compressed_size // 2] ^= 0xFF
+            hit[record] = kind
+    assert hit == {0: "rgb", 1: "json"}
     path.write_bytes(bytes(raw))
     failures = verify(damaged).failures
     assert failures[0] == "shards/shard-00001.mcap: sha256 differs from manifest.json"
-    named = [f for f in failures[1:] if f.startswith("shards/shard-00001.mcap record ")]
-    assert named and len(named) == len(failures) - 1, failures
-    # Where the byte lands (a chunk's data or its framing) decides whether the CRC check or the
-    # decoder catches it first; either way the record is named as damaged.
-    assert all(keys[int(f.split()[2])] in f and ("CRC" in f.upper() or "DAMAGED" in f.upper()) for f in named), named
+    named = failures[1:]
+    assert [f.split()[2] for f in named] == ["0", "1"], failures
+    assert f"record 0 ({keys[0]})" in named[0] and "record 1 (its key unreadable)" in named[1]
+    # Whether the CRC check or the decoder catches the byte first, the record is named as damaged.
+    assert all("CRC" in f.upper() or "DAMAGED" in f.upper() for f in named), named
 
 
 def test_same_command_gives_identical_bytes_whatever_the_worker_count(tiny_dataset, tiny, catalogue, tmp_path):
