@@ -52,6 +52,10 @@ def build_spec(scene: Scene, materials: dict[str, MaterialSpec], opts: SpecOptio
     spec.compiler.usethread = False
     spec.option.timestep = opts.timestep_s
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    # Elliptic friction cones: a condim-6 contact is 6 constraint rows instead of the pyramid's 10,
+    # so settling takes a fifth less time with poses within 0.2 mm of the pyramid's (BENCHMARKS.md,
+    # twenty-third session); MuJoCo recommends them as the closer model of Coulomb friction.
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     _visual_settings(spec, scene, opts)
     add_room(spec, scene, FRICTION, opts.visual, opts.mesh_dir)
     add_objects(spec, scene.objects, materials, opts)
