@@ -524,3 +524,68 @@ def test_list_shuffles_draw_as_numpys_permutation():
             b.shuffle(shuffled)
             assert shuffled == expected
             assert a.random() == b.random()
+
+
+def test_target_order_sorts_its_keys_as_numpy_s_stable_argsort():
+    from refspatial.questions.common import _target_exponents, descending, target_order
+
+    rng = np.random.default_rng(5)
+    for n in range(1, 12):
+        for _ in range(200):  # few distinct values: most draws hold ties, and 0.0 beside -0.0
+            keys = rng.integers(-2, 3, n).astype(float) * rng.choice([1.0, 0.5], n)
+            keys[keys == 0] *= rng.choice([1.0, -1.0], int((keys == 0).sum()))
+            assert descending(keys.tolist()) == np.argsort(-keys, kind="stable").tolist(), keys
+    for seed in range(50):
+        want_rng, got_rng = np.random.default_rng(seed), np.random.default_rng(seed)
+        objs = MUGS.askable()
+        keys = want_rng.random(len(objs)) ** _target_exponents(MUGS)
+        want = [objs[i] for i in np.argsort(-keys, kind="stable")]
+        assert target_order(MUGS, got_rng) == want
+        assert got_rng.random() == want_rng.random()  # the same draws, no more
+
+
+def _ordinals_reference(v, head, target):
+    """The ordinals as worked out before they were memoised per head (the same arithmetic, all
+    of it, for every target)."""
+    from refspatial.questions.program import ORDINAL_AXES, answers_to
+    from refspatial.questions.refer import MAX_RANK
+
+    ids = [o.object_id for o in v.objects if answers_to(v, o, head.category)
+           and head.color in (None, o.color) and o.status != "hidden"]
+    if len(ids) < 2:
+        return []
+    options = []
+    for axis, (key, low_end, _) in ORDINAL_AXES.items():
+        values = [key(v.objects[i]) for i in ids]
+        if not all(np.isfinite(values)):
+            continue
+        ascending = sorted(ids, key=dict(zip(ids, values)).__getitem__)
+        high_end = {"left": "right", "front": "back", "near": "far"}[low_end]
+        for end, order in ((low_end, ascending), (high_end, ascending[::-1])):
+            rank = order.index(target.object_id) + 1
+            if rank <= min(MAX_RANK, (len(ids) + 1) // 2):
+                spread = float(np.array(values).std()) / (1.0 if axis != "depth" else 2.0)
+                options.append((-spread, rank, Ordinal(axis, end, rank)))
+    return [o for *_, o in sorted(options, key=lambda t: (t[0], t[1]))]
+
+
+def test_ordinals_memoised_per_head_are_the_ones_worked_out_per_target():
+    from refspatial.questions.refer import _ordinals
+
+    rng = np.random.default_rng(3)
+    views = [MUGS]
+    for _ in range(20):  # crowds of few categories and colours, some hidden
+        views.append(view(*(obj(i, str(rng.choice(["mug", "bowl"])), str(rng.choice(["red", "blue"])),
+                                float(rng.uniform(-0.5, 0.5)), float(rng.uniform(-0.3, 0.3)),
+                                status=str(rng.choice(["visible", "visible", "hidden"])))
+                            for i in range(7))))
+    checked = 0
+    for v in views:
+        for target in (o for o in v.objects if o.status != "hidden"):  # as the description search asks
+            for category in (target.category, None):
+                for color in (None, target.color):
+                    head = Ref(target.object_id, category, "object", color)
+                    want = _ordinals_reference(v, head, target)
+                    assert _ordinals(v, head, target) == want == _ordinals(v, head, target)
+                    checked += bool(want)
+    assert checked > 100

@@ -17,7 +17,7 @@ from .refer import compile_ref, simple_refs
 QA = dict[str, Any]
 POINT_TRIES = 20
 ORIENTATION_PREDICATES = ("on_facing_side", "on_back_side")
-TARGET_WEIGHTS_KEY = ("target_weights",)  # where a view's cache keeps target_order's weights
+TARGET_EXPONENTS_KEY = ("target_exponents",)  # where a view's cache keeps target_order's exponents
 # Where a view's cache keeps the ``object_key`` of every one-object question its record has asked
 # so far (``questions_for_view`` starts it afresh): a description already asked is passed over
 # before a question is built around it.
@@ -57,18 +57,28 @@ def target_order(view: ViewFacts, rng: np.random.Generator) -> list:
     the central cells). Going down the list finds a description that fits only one object of six
     (a between, a five-step chain), where repeated weighted draws kept landing on the same few."""
     objs = view.askable()
-    keys = rng.random(len(objs)) ** (1.0 / _target_weights(view))  # weighted sampling without replacement
-    return [objs[int(k)] for k in np.argsort(-keys, kind="stable")]
+    # Weighted sampling without replacement: each key u ** (1 / weight), largest first. Sorted as
+    # Python floats, stably, as numpy's stable argsort of the negated keys orders them (a few
+    # objects: the array sort's set-up cost more than the sort).
+    keys = (rng.random(len(objs)) ** _target_exponents(view)).tolist()
+    return [objs[i] for i in descending(keys)]
 
 
-def _target_weights(view: ViewFacts) -> np.ndarray:
-    if TARGET_WEIGHTS_KEY not in view.cache:
+def descending(keys: list[float]) -> list[int]:
+    """``np.argsort(-np.array(keys), kind="stable")`` as a list: indices by key, largest first,
+    equal keys in index order."""
+    return sorted(range(len(keys)), key=keys.__getitem__, reverse=True)
+
+
+def _target_exponents(view: ViewFacts) -> np.ndarray:
+    """1 / each askable object's weight (memoised per view: every target search asks)."""
+    if TARGET_EXPONENTS_KEY not in view.cache:
         objs = view.askable()
         centre = np.array([view.width / 2, view.height / 2])
         diag = float(np.hypot(view.width, view.height))
         w = np.array([0.05 + np.linalg.norm(np.array(o.centroid_px or centre) - centre) / diag for o in objs]) ** 3
-        view.cache[TARGET_WEIGHTS_KEY] = w / w.sum()
-    return view.cache[TARGET_WEIGHTS_KEY]
+        view.cache[TARGET_EXPONENTS_KEY] = 1.0 / (w / w.sum())
+    return view.cache[TARGET_EXPONENTS_KEY]
 
 
 def over_objects(view: ViewFacts, objects, node: Node, rng) -> tuple[list[Node], list, list[str]] | None:
@@ -134,7 +144,7 @@ def _eroded(window: np.ndarray, erode: int) -> tuple[np.ndarray, np.ndarray]:
     the window's border is one the erosion could keep, and the result is the whole frame's."""
     # ``erode`` 3x3 erosions are one erosion by a (2 erode + 1) square, which OpenCV runs as two
     # separable passes whatever its size.
-    return np.nonzero(cv2.erode(window, np.ones((2 * erode + 1, 2 * erode + 1), np.uint8)))
+    return cv2.erode(window, np.ones((2 * erode + 1, 2 * erode + 1), np.uint8)).nonzero()
 
 
 def _draw_points(rows: np.ndarray, cols: np.ndarray, on_mask, n: int, rng: np.random.Generator,

@@ -236,27 +236,48 @@ def _simple_refs(view: ViewFacts, target: ObjectFacts) -> list[Ref]:
 
 def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
     """Ordinals over the head's candidates, axes with the most spread first."""
-    ids = [o.object_id for o in view.objects if answers_to(view, o, head.category)
-           and head.color in (None, o.color) and o.status != "hidden"]
-    if len(ids) < 2:
+    axes = _ordinal_axes(view, head.category, head.color)
+    if not axes:
         return []
     options = []
-    for axis, (key, low_end, _) in ORDINAL_AXES.items():
-        values = [key(view.objects[i]) for i in ids]
-        if not all(math.isfinite(c) for c in values):
-            continue
-        ascending = sorted(ids, key=dict(zip(ids, values)).__getitem__)
-        high_end = {"left": "right", "front": "back", "near": "far"}[low_end]
-        spread = None  # the same for both ends: worked out once, and only for an axis that ranks the target
-        for end, order in ((low_end, ascending), (high_end, ascending[::-1])):
+    for axis, ends, ascending in axes:
+        most = min(MAX_RANK, (len(ascending) + 1) // 2)
+        for end, order in zip(ends, (ascending, ascending[::-1])):
             rank = order.index(target.object_id) + 1
             # Counted from the nearer end: "the third-closest" of three books is "the farthest",
             # and "the second from the right" of two mugs is "the leftmost" (annotator).
-            if rank <= min(MAX_RANK, (len(ids) + 1) // 2):
-                if spread is None:
-                    spread = float(np.array(values).std()) / (1.0 if axis != "depth" else 2.0)
-                options.append((-spread, rank, Ordinal(axis, end, rank)))
+            if rank <= most:
+                options.append((-_spread(view, head.category, head.color, axis), rank, Ordinal(axis, end, rank)))
     return [o for *_, o in sorted(options, key=lambda t: (t[0], t[1]))]
+
+
+def _ordinal_axes(view: ViewFacts, category: str | None, color: str | None) -> list[tuple[str, tuple[str, str], list[int]]]:
+    """For each ordinal axis on which every one of the head's seen candidates has a finite
+    position: (axis, (low end, high end), the candidates' ids in ascending order). Empty with
+    fewer than two candidates. The same for every target under one head (memoised per view)."""
+    key = ("ordinal_axes", category, color)
+    if key not in view.cache:
+        ids = [o.object_id for o in view.objects if answers_to(view, o, category)
+               and color in (None, o.color) and o.status != "hidden"]
+        axes = []
+        for axis, (position, low_end, _) in ORDINAL_AXES.items() if len(ids) >= 2 else ():
+            values = [position(view.objects[i]) for i in ids]
+            if all(math.isfinite(c) for c in values):
+                view.cache[("ordinal_values", category, color, axis)] = values
+                high_end = {"left": "right", "front": "back", "near": "far"}[low_end]
+                axes.append((axis, (low_end, high_end), sorted(ids, key=dict(zip(ids, values)).__getitem__)))
+        view.cache[key] = axes
+    return view.cache[key]
+
+
+def _spread(view: ViewFacts, category: str | None, color: str | None, axis: str) -> float:
+    """How far the head's candidates spread along an axis (their positions' standard deviation,
+    halved for depth), worked out only for an axis that ranks some target (memoised per view)."""
+    key = ("ordinal_spread", category, color, axis)
+    if key not in view.cache:
+        values = view.cache[("ordinal_values", category, color, axis)]
+        view.cache[key] = float(np.array(values).std()) / (1.0 if axis != "depth" else 2.0)
+    return view.cache[key]
 
 
 # Part kinds and their step counts: unary (a phrase: 1 step), binary (an anchor and a phrase: 2),
