@@ -76,23 +76,32 @@ def test_a_shard_runs_with_rarer_collections_and_restores_the_collector(tiny, ca
     seen = []
 
     def record_threshold(recipe, cat, seed):
-        seen.append(gc.get_threshold())
+        seen.append((gc.get_threshold(), gc.get_freeze_count() > 0))
         raise RuntimeError("no scene needed")
 
     monkeypatch.setattr(pipeline, "generate_scene", record_threshold)
+    gc.unfreeze()
     before = gc.get_threshold()
     (tmp_path / "shards").mkdir()
     summary = run_shard(ShardJob(0, 0, 2, tmp_path, tiny, catalogue, base_seed=7))
     assert len(summary["skipped"]) == 2
-    assert seen == [(YOUNG_PASS_AFTER, before[1], FULL_PASS_EVERY)] * 2
-    assert gc.get_threshold() == before
+    # The heap held before the shard is frozen while it runs, and thawed after.
+    assert seen == [((YOUNG_PASS_AFTER, before[1], FULL_PASS_EVERY), True)] * 2
+    assert gc.get_threshold() == before and gc.get_freeze_count() == 0
+    gc.freeze()  # a heap frozen by the caller stays frozen
+    try:
+        frozen = gc.get_freeze_count()
+        run_shard(ShardJob(0, 0, 2, tmp_path, tiny, catalogue, base_seed=7))
+        assert gc.get_freeze_count() >= frozen
+    finally:
+        gc.unfreeze()
 
     def interrupt(tick):
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):  # a shard cut short restores it too
         run_shard(ShardJob(1, 0, 2, tmp_path, tiny, catalogue, base_seed=7), interrupt)
-    assert gc.get_threshold() == before
+    assert gc.get_threshold() == before and gc.get_freeze_count() == 0
 
 
 class FullDisk(ShardWriter):
