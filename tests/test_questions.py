@@ -589,3 +589,46 @@ def test_ordinals_memoised_per_head_are_the_ones_worked_out_per_target():
                     assert _ordinals(v, head, target) == want == _ordinals(v, head, target)
                     checked += bool(want)
     assert checked > 100
+
+
+def test_mask_points_are_the_ones_drawn_from_the_eroded_pixels_row_by_row():
+    """The eroded pixels kept as indices into the raveled window give the points the frame's
+    rows and columns of a 2-D nonzero gave, draw for draw (the order is the rng's to index)."""
+    import cv2
+
+    from refspatial.questions.common import POINT_TRIES, _thousandths, sample_mask_points
+    from refspatial.relations.masks import padded
+
+    def reference(mask, n, rng, erode):
+        m = mask.view(np.uint8)
+        x, y, w, h = cv2.boundingRect(m)
+        if w == 0:
+            return None
+        window = padded((slice(y, y + h), slice(x, x + w)), erode + 1, mask.shape)
+        rows, cols = np.nonzero(cv2.erode(m[window], np.ones((2 * erode + 1,) * 2, np.uint8)))
+        rows, cols = rows + window[0].start, cols + window[1].start
+        if len(rows) == 0:
+            return None
+        points = []
+        for _ in range(n * POINT_TRIES):
+            k = int(rng.integers(len(rows)))
+            px, py = _thousandths((int(cols[k]) + 0.5) / mask.shape[1]), _thousandths((int(rows[k]) + 0.5) / mask.shape[0])
+            if mask[min(int(py * mask.shape[0]), mask.shape[0] - 1), min(int(px * mask.shape[1]), mask.shape[1] - 1)]:
+                points.append([px, py])
+                if len(points) == n:
+                    return points
+        return None
+
+    rng = np.random.default_rng(12)
+    drawn = 0
+    for _ in range(150):
+        h, w = (int(v) for v in rng.integers(20, 120, 2))
+        mask = np.zeros((h, w), dtype=bool)
+        for _ in range(int(rng.integers(1, 5))):
+            (r0, c0), (dr, dc) = rng.integers(-10, [h, w]), rng.integers(2, 40, 2)
+            mask[max(r0, 0):r0 + dr, max(c0, 0):c0 + dc] = True
+        erode, seed = int(rng.integers(1, 4)), int(rng.integers(1 << 30))
+        want = reference(mask, 5, np.random.default_rng(seed), erode)
+        assert sample_mask_points(mask, 5, np.random.default_rng(seed), erode) == want
+        drawn += want is not None
+    assert drawn > 50

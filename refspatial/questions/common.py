@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import functools
-from typing import Any
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -112,13 +112,13 @@ def erosion_px(view: ViewFacts) -> int:
 def sample_mask_points(mask: np.ndarray, n: int, rng: np.random.Generator, erode: int) -> list[list[float]] | None:
     """n normalised (x, y) points on a frame-sized mask, eroded first; each rounded point is
     checked on the mask. A point (x, y) stands for pixel column floor(x * W), row floor(y * H)."""
-    m = mask.view(np.uint8) if mask.dtype == bool else mask.astype(np.uint8)
+    # 0/1 either way (a mask of other values is on where its uint8 cast is not 0, as it was).
+    m = mask.view(np.uint8) if mask.dtype == bool else (mask.astype(np.uint8) != 0).view(np.uint8)
     x, y, w, h = cv2.boundingRect(m)
     if w == 0:
         return None
     window = padded((slice(y, y + h), slice(x, x + w)), erode + 1, mask.shape)
-    rows, cols = _eroded(m[window], erode)
-    return _draw_points(rows + window[0].start, cols + window[1].start, lambda r, c: mask[r, c], n, rng, mask.shape)
+    return _draw_points(_eroded(m[window], erode, window), lambda r, c: mask[r, c], n, rng, mask.shape)
 
 
 def sample_points(view: ViewFacts, object_id: int, n: int, rng: np.random.Generator) -> list[list[float]] | None:
@@ -130,33 +130,48 @@ def sample_points(view: ViewFacts, object_id: int, n: int, rng: np.random.Genera
         if box is not None:
             erode = erosion_px(view)
             window = padded(box, erode + 1, view.seg.shape)
-            rows, cols = _eroded((view.seg[window] == object_id).view(np.uint8), erode)
-            pixels = rows + window[0].start, cols + window[1].start
+            pixels = _eroded((view.seg[window] == object_id).view(np.uint8), erode, window)
         view.cache[key] = pixels
     if view.cache[key] is None:
         return None
-    return _draw_points(*view.cache[key], lambda r, c: view.seg[r, c] == object_id, n, rng, view.seg.shape)
+    return _draw_points(view.cache[key], lambda r, c: view.seg[r, c] == object_id, n, rng, view.seg.shape)
 
 
-def _eroded(window: np.ndarray, erode: int) -> tuple[np.ndarray, np.ndarray]:
-    """(rows, cols), row by row, of a uint8 mask's pixels left after ``erode`` 3x3 erosions. The
-    window must reach erode + 1 pixels past the mask (or the frame's edge): then no pixel near
-    the window's border is one the erosion could keep, and the result is the whole frame's."""
+class _Pixels(NamedTuple):
+    """A window's pixels, row by row: their indices in the raveled window, and where the window
+    lies (its width, its first row and column in the frame)."""
+
+    flat: np.ndarray
+    width: int
+    row0: int
+    col0: int
+
+
+def _eroded(mask: np.ndarray, erode: int, window: tuple[slice, slice]) -> _Pixels:
+    """The pixels of a 0/1 uint8 window of the frame (``mask``, cut at ``window``) left after
+    ``erode`` 3x3 erosions. The window must reach erode + 1 pixels past the mask (or the frame's
+    edge): then no pixel near the window's border is one the erosion could keep, and the result
+    is the whole frame's."""
     # ``erode`` 3x3 erosions are one erosion by a (2 erode + 1) square, which OpenCV runs as two
-    # separable passes whatever its size.
-    return cv2.erode(window, np.ones((2 * erode + 1, 2 * erode + 1), np.uint8)).nonzero()
+    # separable passes whatever its size. Its 0/1 result read as bool and raveled finds its
+    # pixels ten times quicker than a 2-D uint8 nonzero (17 against 184 us a 220 x 180 window),
+    # in the same row-by-row order.
+    kept = cv2.erode(mask, np.ones((2 * erode + 1, 2 * erode + 1), np.uint8))
+    return _Pixels(kept.view(bool).ravel().nonzero()[0], kept.shape[1], window[0].start, window[1].start)
 
 
-def _draw_points(rows: np.ndarray, cols: np.ndarray, on_mask, n: int, rng: np.random.Generator,
+def _draw_points(pixels: _Pixels, on_mask, n: int, rng: np.random.Generator,
                  frame: tuple[int, int]) -> list[list[float]] | None:
     """n of the candidate pixels, at random, as normalised points that round back onto the mask."""
-    if len(rows) == 0:
+    flat, width, row0, col0 = pixels
+    if len(flat) == 0:
         return None
     h, w = frame
     points: list[list[float]] = []
     for _ in range(n * POINT_TRIES):
-        k = int(rng.integers(len(rows)))
-        x, y = _thousandths((int(cols[k]) + 0.5) / w), _thousandths((int(rows[k]) + 0.5) / h)
+        k = int(rng.integers(len(flat)))
+        row, col = divmod(int(flat[k]), width)
+        x, y = _thousandths((col + col0 + 0.5) / w), _thousandths((row + row0 + 0.5) / h)
         if on_mask(min(int(y * h), h - 1), min(int(x * w), w - 1)):
             points.append([x, y])
             if len(points) == n:
