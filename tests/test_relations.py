@@ -611,3 +611,21 @@ def test_compiled_loops_run_where_no_folder_can_hold_their_cache():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["55"]  # the 10 x 10 right triangle's pixel centres: 10 + 9 + ... + 1
+
+
+def test_apparent_area_is_the_picture_area_of_the_outline_prism():
+    """How big an object looks: the area its box (ground outline from bottom to top) covers in the
+    picture, worked out here from the box's eight corners."""
+    import cv2
+
+    from refspatial.relations.geometry import project
+    from refspatial.relations.metric import apparent_area_px
+
+    v = view(obj(0, "box", "red", -0.2, 0.1, size=0.1, height=0.3), obj(1, "book", "blue", 0.25, 0.3, size=0.2,
+                                                                          height=0.02, z=0.05))
+    for o in v.objects:
+        (x0, y0, z0), (x1, y1, z1) = o.aabb_world_m
+        corners = np.array([[x, y, z] for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)])
+        uv, _ = project(corners, v.K, v.T_world_cam)
+        want = cv2.contourArea(cv2.convexHull(uv.astype(np.float32)))
+        assert apparent_area_px(v, o) == pytest.approx(want, rel=1e-5) and want > 50

@@ -107,7 +107,12 @@ def apparent_area_px(v: ViewFacts, o: ObjectFacts) -> float:
     if key not in v.cache:
         ring = o.ground_outline
         (_, _, z0), (_, _, z1) = o.aabb_world_m
-        prism = np.concatenate([np.c_[ring, np.full(len(ring), z0)], np.c_[ring, np.full(len(ring), z1)]])
+        # The ring at the bottom, then at the top (filled in place: np.c_'s indexing machinery took
+        # 50 us of the 70 a call).
+        n = len(ring)
+        prism = np.empty((2 * n, 3))
+        prism[:n, :2] = prism[n:, :2] = ring
+        prism[:n, 2], prism[n:, 2] = z0, z1
         uv, z = project(prism, v.K, v.T_world_cam)
         v.cache[key] = float(cv2.contourArea(cv2.convexHull(uv.astype(np.float32)))) if np.all(z > 0.01) else 0.0
     return v.cache[key]
@@ -165,7 +170,7 @@ def _worked_out_gap_and_scale(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> t
     lift = max(0.0, float(a_lo - b_hi), float(b_lo - a_hi))
     if lift > 0.0:
         gap = float(np.hypot(gap, lift))
-    scale = (float(a.footprint_m.max()) + float(b.footprint_m.max())) / 2
+    scale = (max(a.footprint_m.tolist()) + max(b.footprint_m.tolist())) / 2  # exact maxima, as numpy's
     return gap, scale
 
 
