@@ -52,6 +52,14 @@ def _meet_in_picture(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> bool:
     window = padded(box_a, reach, v.seg.shape)  # every pixel that near A
     if any(wb.stop <= w.start or wb.start >= w.stop for wb, w in zip(box_b, window)):
         return False
-    seg = v.seg[window]
-    near_a = cv2.dilate((seg == a.object_id).view(np.uint8), np.ones((2 * reach + 1,) * 2, np.uint8))
-    return bool(np.any(near_a.view(bool) & (seg == b.object_id)))
+    return bool(np.any(_near(v, a, window, reach) & (v.seg[window] == b.object_id)))
+
+
+def _near(v: ViewFacts, a: ObjectFacts, window: tuple[slice, slice], reach: int) -> np.ndarray:
+    """Bool over ``window``: the pixels within ``reach`` of A's (memoised per view and object:
+    every pair with A asks the same dilation)."""
+    key = ("near_pixels", a.object_id)
+    if key not in v.cache:
+        mine = (v.seg[window] == a.object_id).view(np.uint8)
+        v.cache[key] = cv2.dilate(mine, np.ones((2 * reach + 1,) * 2, np.uint8)).view(bool)
+    return v.cache[key]

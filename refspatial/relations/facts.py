@@ -21,7 +21,7 @@ from scipy.spatial import ConvexHull
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
 from ..vector import column_bounds, length
-from .geometry import covered_pixels_each, gap_between, overlap_share, project
+from .geometry import covered_pixels_each, gap_between, overlap_share, polygon_area, project
 from .masks import BOXES_KEY, PIXELS_KEY, PixelStats, box_of, object_boxes, pixel_stats
 
 VISIBLE_SHARE_OF_IMAGE = 0.0006  # below this many pixels (share of the image) an object is too small to ask about
@@ -159,6 +159,11 @@ class ObjectFacts:
     def ground_outline(self) -> np.ndarray:
         """The mesh's convex ground outline, or its footprint box where the facts lack one."""
         return self.outline_world if self.outline_world is not None else self.footprint_world
+
+    @cached_property  # the overlap and size predicates ask it of every pair
+    def ground_area_m2(self) -> float:
+        """Area of the ground outline."""
+        return polygon_area(self.ground_outline)
 
     @cached_property
     def _extents(self) -> dict:

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..vector import angle_deg, length
 from .facts import ObjectFacts, ViewFacts
-from .geometry import polygon_area, project, widths
+from .geometry import project, widths
 from .registry import Quantity, Verdict, compare, predicate
 from .vertical import contained
 
@@ -80,7 +80,7 @@ def bigger_than(v: ViewFacts, a: ObjectFacts, b: ObjectFacts) -> Verdict:
     if _flat(a) and _flat(b):
         # Flat things are as big as their face: a cutting board thicker than another but with the
         # smaller face (0.069 against 0.073 m^2) was "larger" by volume only (annotator, read 36).
-        fa, fb = polygon_area(a.ground_outline), polygon_area(b.ground_outline)
+        fa, fb = a.ground_area_m2, b.ground_area_m2
         if compare(fa - fb, VOLUME_MARGIN * max(fa, fb)) is not enclosed:
             return None
     la, lb = _longest(v, a), _longest(v, b)

@@ -90,14 +90,24 @@ def _edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
 
     None on a room's floor (its edges are not the room's walls and are out of the picture), on a
     shelf (questions say "the table", and a board's corners are not what a person calls one),
-    and for a thing in a container: a person judges the basket at the edge, not the jar in it."""
+    and for a thing in a container: a person judges the basket at the edge, not the jar in it.
+    Memoised per view and object (at_edge and at_corner both ask)."""
+    key = ("edge_distances", a.object_id)
+    if key not in v.cache:
+        v.cache[key] = _worked_out_edge_distances(v, a)
+    return v.cache[key]
+
+
+def _worked_out_edge_distances(v: ViewFacts, a: ObjectFacts) -> np.ndarray | None:
     if a.support != TABLE or not v.table_size_m[0] or v.table_surface == "floor" or v.table_levels_m:
         return None
     if any(o.object_id != a.object_id and contained(v, a, o) is not False for o in v.objects):
         return None
     half = np.asarray(v.table_size_m) / 2
     corners = a.footprint_world
-    return half - np.abs(corners).max(axis=0)
+    distances = half - np.abs(corners).max(axis=0)
+    distances.flags.writeable = False  # shared by both predicates
+    return distances
 
 
 @predicate("at_edge", family="corner_edge", arity=1, frame="world")
