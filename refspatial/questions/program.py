@@ -79,9 +79,9 @@ def _also_called() -> dict[str, tuple[str, ...]]:
 def _filter(view: ViewFacts, node: Node, ids: list[int]) -> list[int]:
     """Objects answering to the node's category name (``answers_to``) in its colour (either may
     be None: any). Fails on a barely visible match."""
-    out = [i for i in ids if answers_to(view, view.objects[i], node.get("category"))
-           and node.get("color") in (None, view.objects[i].color)]
-    if any(view.objects[i].status != "visible" for i in out):
+    category, color, objects = node.get("category"), node.get("color"), view.objects
+    out = [i for i in ids if answers_to(view, objects[i], category) and color in (None, objects[i].color)]
+    if any(objects[i].status != "visible" for i in out):
         raise ProgramError(f"a barely visible {node.get('category') or 'object'} makes the description unsafe")
     return out
 
