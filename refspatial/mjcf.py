@@ -52,9 +52,9 @@ def build_spec(scene: Scene, materials: dict[str, MaterialSpec], opts: SpecOptio
     spec.compiler.usethread = False
     spec.option.timestep = opts.timestep_s
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    # Elliptic friction cones: a condim-6 contact is 6 constraint rows instead of the pyramid's 10,
-    # so settling takes a fifth less time with poses within 0.2 mm of the pyramid's (BENCHMARKS.md,
-    # twenty-third session); MuJoCo recommends them as the closer model of Coulomb friction.
+    # Elliptic friction cones: a condim-6 contact is 6 constraint rows instead of the pyramid's 10.
+    # With the recipes' 6 ms step a settle takes 20-35 % less time than pyramids at 4 ms did, poses
+    # within 0.7 mm of theirs (one shelf object 2.2 mm; BENCHMARKS.md, twenty-third session).
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     _visual_settings(spec, scene, opts)
     add_room(spec, scene, FRICTION, opts.visual, opts.mesh_dir)

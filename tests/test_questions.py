@@ -612,8 +612,9 @@ def test_mask_points_are_the_ones_drawn_from_the_eroded_pixels_row_by_row():
         points = []
         for _ in range(n * POINT_TRIES):
             k = int(rng.integers(len(rows)))
-            px, py = _thousandths((int(cols[k]) + 0.5) / mask.shape[1]), _thousandths((int(rows[k]) + 0.5) / mask.shape[0])
-            if mask[min(int(py * mask.shape[0]), mask.shape[0] - 1), min(int(px * mask.shape[1]), mask.shape[1] - 1)]:
+            h, w = mask.shape
+            px, py = _thousandths((int(cols[k]) + 0.5) / w), _thousandths((int(rows[k]) + 0.5) / h)
+            if mask[min(int(py * h), h - 1), min(int(px * w), w - 1)]:
                 points.append([px, py])
                 if len(points) == n:
                     return points

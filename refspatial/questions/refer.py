@@ -251,7 +251,8 @@ def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
     return [o for *_, o in sorted(options, key=lambda t: (t[0], t[1]))]
 
 
-def _ordinal_axes(view: ViewFacts, category: str | None, color: str | None) -> list[tuple[str, tuple[str, str], list[int]]]:
+def _ordinal_axes(view: ViewFacts, category: str | None,
+                  color: str | None) -> list[tuple[str, tuple[str, str], list[int]]]:
     """For each ordinal axis on which every one of the head's seen candidates has a finite
     position: (axis, (low end, high end), the candidates' ids in ascending order). Empty with
     fewer than two candidates. The same for every target under one head (memoised per view)."""
