@@ -240,22 +240,24 @@ def _ordinals(view: ViewFacts, head: Ref, target: ObjectFacts) -> list[Ordinal]:
     if not axes:
         return []
     options = []
-    for axis, ends, ascending in axes:
+    for axis, ends, ascending, values in axes:
         most = min(MAX_RANK, (len(ascending) + 1) // 2)
         for end, order in zip(ends, (ascending, ascending[::-1])):
             rank = order.index(target.object_id) + 1
             # Counted from the nearer end: "the third-closest" of three books is "the farthest",
             # and "the second from the right" of two mugs is "the leftmost" (annotator).
             if rank <= most:
-                options.append((-_spread(view, head.category, head.color, axis), rank, Ordinal(axis, end, rank)))
+                spread = _spread(view, ("ordinal_spread", head.category, head.color, axis), values, axis)
+                options.append((-spread, rank, Ordinal(axis, end, rank)))
     return [o for *_, o in sorted(options, key=lambda t: (t[0], t[1]))]
 
 
 def _ordinal_axes(view: ViewFacts, category: str | None,
-                  color: str | None) -> list[tuple[str, tuple[str, str], list[int]]]:
+                  color: str | None) -> list[tuple[str, tuple[str, str], list[int], list[float]]]:
     """For each ordinal axis on which every one of the head's seen candidates has a finite
-    position: (axis, (low end, high end), the candidates' ids in ascending order). Empty with
-    fewer than two candidates. The same for every target under one head (memoised per view)."""
+    position: (axis, (low end, high end), the candidates' ids in ascending order, their
+    positions in id order). Empty with fewer than two candidates. The same for every target under
+    one head (memoised per view)."""
     key = ("ordinal_axes", category, color)
     if key not in view.cache:
         ids = [o.object_id for o in view.objects if answers_to(view, o, category)
@@ -264,19 +266,17 @@ def _ordinal_axes(view: ViewFacts, category: str | None,
         for axis, (position, low_end, _) in ORDINAL_AXES.items() if len(ids) >= 2 else ():
             values = [position(view.objects[i]) for i in ids]
             if all(math.isfinite(c) for c in values):
-                view.cache[("ordinal_values", category, color, axis)] = values
                 high_end = {"left": "right", "front": "back", "near": "far"}[low_end]
-                axes.append((axis, (low_end, high_end), sorted(ids, key=dict(zip(ids, values)).__getitem__)))
+                axes.append((axis, (low_end, high_end), sorted(ids, key=dict(zip(ids, values)).__getitem__), values))
         view.cache[key] = axes
     return view.cache[key]
 
 
-def _spread(view: ViewFacts, category: str | None, color: str | None, axis: str) -> float:
-    """How far the head's candidates spread along an axis (their positions' standard deviation,
-    halved for depth), worked out only for an axis that ranks some target (memoised per view)."""
-    key = ("ordinal_spread", category, color, axis)
+def _spread(view: ViewFacts, key: tuple, values: list[float], axis: str) -> float:
+    """How far a head's candidates spread along an axis (their positions' standard deviation,
+    halved for depth), worked out only for an axis that ranks some target (memoised per view
+    under ``key``)."""
     if key not in view.cache:
-        values = view.cache[("ordinal_values", category, color, axis)]
         view.cache[key] = float(np.array(values).std()) / (1.0 if axis != "depth" else 2.0)
     return view.cache[key]
 
