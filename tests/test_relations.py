@@ -299,6 +299,45 @@ def test_a_stored_outline_does_not_depend_on_the_last_bits_of_the_pose():
     assert lowest == 0 and ax * by - ay * bx > 0  # counter-clockwise
 
 
+def test_convex_ring_finds_qhulls_corners():
+    """The compiled hull against scipy's Qhull (the maker of outlines before it), on the point sets
+    outlines are made of: rounded to the micrometre, with corners repeated, points on edges and
+    whole rows level in x, and on small sets like two footprints' eight corners."""
+    from scipy.spatial import ConvexHull
+
+    from refspatial.compiled import convex_ring
+
+    def qhull_ring(xy):
+        ring = xy[ConvexHull(xy).vertices]
+        return np.roll(ring, -np.lexsort((ring[:, 0], ring[:, 1]))[0], axis=0)
+
+    rng = np.random.default_rng(11)
+    angles = np.linspace(0, 2 * np.pi, 96, endpoint=False)
+    for k in range(300):
+        n = int(rng.integers(4, 400))
+        kind = k % 4
+        if kind == 0:  # a turned box's corners and points along its edges and inside
+            corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * rng.uniform(0.01, 0.3, 2)
+            t = rng.uniform(0, 1, (n, 1))
+            edge = corners[rng.integers(0, 4, n)] * (1 - t) + corners[rng.integers(0, 4, n)] * t
+            xy = np.concatenate([corners, edge, rng.uniform(-0.01, 0.01, (n, 2))])
+            c, s = np.cos(rng.uniform(0, np.pi)), np.sin(rng.uniform(0, np.pi))
+            xy = xy @ np.array([[c, -s], [s, c]]) + rng.uniform(-1, 1, 2)
+        elif kind == 1:  # a round rim, some vertices twice
+            rim = np.c_[np.cos(angles), np.sin(angles)] * rng.uniform(0.01, 0.2)
+            xy = np.concatenate([rim, rim[: n % 96], rng.normal(size=(n, 2)) * 0.005])
+        elif kind == 2:  # an upright box seen from above: rows and columns of points level in x and y
+            xy = np.c_[rng.choice(rng.uniform(-0.1, 0.1, 8), n), rng.choice(rng.uniform(-0.1, 0.1, 6), n)]
+        else:  # two footprints' corners
+            xy = rng.uniform(-0.5, 0.5, (8, 2))
+        xy = np.round(xy[rng.permutation(len(xy))], 6)
+        want = qhull_ring(xy)
+        got = xy[convex_ring(xy)]
+        assert np.array_equal(got, want), k
+    with pytest.raises(ValueError, match="one line"):
+        convex_ring(np.array([[0.0, 0.0], [0.5, 0.5], [1.0, 1.0], [0.25, 0.25]]))
+
+
 def test_pixel_stats_equal_the_gathered_pixels_statistics():
     """Centroid and mean colour from sums give the same bits as numpy's means of the gathered
     pixels (what records stored before), and the median depth is theirs."""

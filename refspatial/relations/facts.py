@@ -16,8 +16,8 @@ from functools import cached_property
 
 import cv2
 import numpy as np
-from scipy.spatial import ConvexHull
 
+from ..compiled import convex_ring
 from ..render import View
 from ..scene import Cavity, PlacedObject, Scene
 from ..vector import column_bounds, length
@@ -349,12 +349,10 @@ def _outline(verts_world: np.ndarray) -> np.ndarray:
 
     The vertices are rounded before the hull and the start is fixed: in one run of a thousand,
     posed vertices came out a few ulps apart (the same scene, another process under load) and
-    qhull began its walk round a circular outline at another of its 110 corners; the record
-    then differed in bytes with every coordinate the same."""
+    qhull, the hull's maker then, began its walk round a circular outline at another of its 110
+    corners; the record then differed in bytes with every coordinate the same."""
     xy = np.round(verts_world[:, :2], 6)
-    ring = xy[ConvexHull(xy).vertices]
-    start = np.lexsort((ring[:, 0], ring[:, 1]))[0]
-    return np.roll(ring, -start, axis=0)
+    return xy[convex_ring(xy)]
 
 
 def _footprint(asset, T: np.ndarray) -> np.ndarray:

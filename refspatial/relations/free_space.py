@@ -31,10 +31,9 @@ from functools import lru_cache
 import cv2
 import numpy as np
 from scipy.ndimage import distance_transform_edt
-from scipy.spatial import ConvexHull
 
-from ..compiled import (BETWEEN, OFFSET, ON_TOP, SECTOR, in_regions, in_regions_grid, plane_cells, sector_cells,
-                        seen_and_cleared, strip_answer)
+from ..compiled import (BETWEEN, OFFSET, ON_TOP, SECTOR, convex_ring, in_regions, in_regions_grid, plane_cells,
+                        sector_cells, seen_and_cleared, strip_answer)
 from ..scene import LEG_HALF_M, LEG_INSET_M
 from ..vector import column_bounds
 from .directional import corridor, squarely_between
@@ -489,7 +488,7 @@ def _between_planes(v: ViewFacts, c: Constraint) -> tuple[np.ndarray, np.ndarray
     key = ("between_hull", *sorted(c.anchors))
     if key not in v.cache:  # the mask and every solve with this pair ask again
         corners = np.concatenate([v.objects[i].footprint_world for i in c.anchors])
-        v.cache[key] = half_planes(corners[ConvexHull(corners).vertices])
+        v.cache[key] = half_planes(corners[convex_ring(corners)])
     return v.cache[key]
 
 
