@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 
+from .compiled import in_frame
 from .compose import SceneRejected
 from .recipe import Recipe
 from .room import camera_clearance_m
@@ -21,6 +22,7 @@ from .scene import Camera, Scene, matrix_to_quat
 from .seeding import stage_rng
 
 FIT_ITERATIONS = 30  # bisection steps on the viewing distance (sub-millimetre)
+NEAREST_M = 0.05  # every object corner at least this far in front of the camera
 
 
 def frame_cameras(scene: Scene, recipe: Recipe) -> Scene:
@@ -92,9 +94,7 @@ def _frame_one(name: str, corners: np.ndarray, aim: np.ndarray, spec: dict, rng:
         def fits(d: float) -> bool:
             T[:3, 3] = aim + d * rot[:, 2]
             uv, z = project_points(corners, K, T)
-            m = spec["margin_px"]
-            return bool(np.all(z > 0.05) and np.all(uv >= m) and np.all(uv[:, 0] <= spec["width"] - m)
-                        and np.all(uv[:, 1] <= spec["height"] - m))
+            return in_frame(uv, z, NEAREST_M, spec["margin_px"], spec["width"], spec["height"])
 
         if not fits(d_hi):
             continue

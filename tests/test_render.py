@@ -30,6 +30,30 @@ def test_camera_follows_the_recipe(rendered, tiny):
     assert np.all(uv <= [cam.width - m + 1e-6, cam.height - m + 1e-6])
 
 
+def test_the_compiled_framing_test_is_numpys():
+    """The camera bisection's test of projected corners (compiled) against the numpy reductions it
+    replaced, on points inside, on and just past every margin, behind the camera and not finite."""
+    from refspatial.compiled import in_frame
+
+    rng = np.random.default_rng(3)
+    w, h, m, near = 960, 540, 12, 0.05
+    edges = np.array([m, w - m, h - m, np.nextafter(m, 0), np.nextafter(w - m, 2 * w), np.nextafter(h - m, 2 * h)])
+    seen = set()
+    for _ in range(3000):
+        n = int(rng.integers(1, 9))
+        uv = np.c_[rng.uniform(m, w - m, n), rng.uniform(m, h - m, n)]
+        z = rng.uniform(near, 3.0, n)
+        for _ in range(int(rng.integers(0, 3))):
+            k, axis = int(rng.integers(n)), int(rng.integers(2))
+            uv[k, axis] = rng.choice(np.r_[edges, np.nan, -1.0, 2e3])
+        if rng.random() < 0.2:
+            z[int(rng.integers(n))] = rng.choice([near, np.nextafter(near, 1), 0.0, -1.0, np.nan])
+        want = bool(np.all(z > near) and np.all(uv >= m) and np.all(uv[:, 0] <= w - m) and np.all(uv[:, 1] <= h - m))
+        assert in_frame(uv, z, near, m, w, h) is want
+        seen.add(want)
+    assert seen == {True, False}
+
+
 def test_arrays_have_documented_types(rendered, tiny):
     _, view = rendered
     h, w = tiny["camera"]["height"], tiny["camera"]["width"]
