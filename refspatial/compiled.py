@@ -9,9 +9,10 @@ down to the platform plane. As
 whole-array numpy steps each makes several passes over temporaries as big as the frame; as one
 loop each costs a third to a fifth of that. The others are small but asked often, where each
 numpy call costs more to set up than its arithmetic: a free-space sector's few thousand cells
-(some forty calls a solve), the free-space regions' own test of a placement mask's points, and
+(some forty calls a solve), the free-space regions' own test of a placement mask's points,
 containment in, clipping by, gaps between and the boxes of ground outlines of up to a hundred
-corners.
+corners, and the camera's framing test. Convex hulls are here too, where scipy's Qhull spent
+most of each call setting itself up.
 
 Each loop does the arithmetic of the numpy code it replaced, in the same IEEE operations and order
 (numba without ``fastmath`` neither reorders nor fuses them), so every count, mask and cell is the
@@ -275,7 +276,7 @@ def convex_ring(points: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled
     """Indices of the corners of the convex hull of (N, 2) points, counter-clockwise from the
     lowest (then leftmost) corner, points on an edge left out (Andrew's monotone chain; a
     duplicate point may be named by either index). Qhull through scipy found the same corners
-    for every ground outline and footprint pair of 270 scenes, at 60-200 us a call against a few
+    for every ground outline and footprint pair of 270 scenes, in 30-200 us a call against 1-60
     here: most of Qhull's time is setting itself up. Fewer than three corners raise ValueError."""
     n = len(points)
     order = np.argsort(points[:, 0])
@@ -285,24 +286,14 @@ def convex_ring(points: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled
             order[j] = order[j - 1]
             j -= 1
         order[j] = p
-    ring = np.empty(2 * n + 1, np.int64)
+    ring = np.empty(2 * n, np.int64)
     k = 0
-    for half in range(2):  # the lower chain left to right, then the upper one back
-        floor = 2 if half == 0 else k + 1
-        for m in range(n - 1 if half else 0, -1 if half else n, -1 if half else 1):
-            if half and m == n - 1:
-                continue  # the rightmost point already ends the lower chain
-            p = order[m]
-            while k >= floor:
-                a, b = ring[k - 2], ring[k - 1]
-                cross = ((points[b, 0] - points[a, 0]) * (points[p, 1] - points[a, 1])
-                         - (points[b, 1] - points[a, 1]) * (points[p, 0] - points[a, 0]))
-                if cross > COLLINEAR_CROSS:
-                    break
-                k -= 1
-            ring[k] = p
-            k += 1
-    k -= 1  # the last point is the first again
+    for m in range(n):  # the lower chain, left to right
+        k = _turn_left(points, ring, k, 2, order[m])
+    upper = k + 1
+    for m in range(n - 2, -1, -1):  # the upper chain, right to left, back to the first point
+        k = _turn_left(points, ring, k, upper, order[m])
+    k -= 1  # the first point, met again
     if k < 3:
         raise ValueError("convex_ring: the points lie on one line")
     # The ring begins at its leftmost corner and runs along the bottom first: the first of the
@@ -315,6 +306,22 @@ def convex_ring(points: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled
     for m in range(k):
         out[m] = ring[(start + m) % k]
     return out
+
+
+@_compiled()
+def _turn_left(points: np.ndarray, ring: np.ndarray, k: int, floor: int,
+               p: int) -> int:  # pragma: no cover (compiled: coverage cannot see inside)
+    """Append point ``p`` to the chain ``ring[:k]``, first dropping its last points while they do
+    not turn left on the way to ``p`` (keeping ``floor`` - 1 of them); returns the new length."""
+    while k >= floor:
+        a, b = ring[k - 2], ring[k - 1]
+        cross = ((points[b, 0] - points[a, 0]) * (points[p, 1] - points[a, 1])
+                 - (points[b, 1] - points[a, 1]) * (points[p, 0] - points[a, 0]))
+        if cross > COLLINEAR_CROSS:
+            break
+        k -= 1
+    ring[k] = p
+    return k + 1
 
 
 @_compiled()
