@@ -576,20 +576,53 @@ def in_regions_grid(xs: np.ndarray, ys: np.ndarray, kinds: np.ndarray, params: n
 
 
 @_compiled()
-def seen_and_cleared(uv: np.ndarray, z: np.ndarray, depth: np.ndarray, clear: np.ndarray,
-                     occlusion_m: float):  # pragma: no cover (compiled: coverage cannot see inside)
-    """For each projected point (pixel coordinates ``uv``, optical-axis depth ``z``) whose pixel
-    floor(uv) lies on the image: whether the rendered ``depth`` there is within ``occlusion_m``
-    of z, for z > 0 (seen), and whether ``clear`` holds that pixel (cleared); a point off the
-    image is neither. A coordinate that is not finite is off the image."""
-    n = len(uv)
+def unknown_cells(known: np.ndarray, rows: np.ndarray,
+                  cols: np.ndarray):  # pragma: no cover (compiled: coverage cannot see inside)
+    """The (rows, columns) of the cells given that ``known`` does not hold yet, in their order."""
+    n = 0
+    for i in range(len(rows)):
+        if not known[rows[i], cols[i]]:
+            n += 1
+    out_rows, out_cols = np.empty(n, np.int64), np.empty(n, np.int64)
+    k = 0
+    for i in range(len(rows)):
+        if not known[rows[i], cols[i]]:
+            out_rows[k], out_cols[k] = rows[i], cols[i]
+            k += 1
+    return out_rows, out_cols
+
+
+@_compiled()
+def cell_points(rows: np.ndarray, cols: np.ndarray, first_x: int, first_y: int, z: float,
+                cell: float) -> np.ndarray:  # pragma: no cover (compiled: coverage cannot see inside)
+    """(N, 3) points at the centres of raster cells at height z: ((column or row) + first + 0.5)
+    times the cell size, in x and y, numpy's operations in numpy's order (the index sum as an
+    integer, then a float)."""
+    out = np.empty((len(rows), 3))
+    for i in range(len(rows)):
+        out[i, 0] = (np.float64(cols[i] + first_x) + 0.5) * cell
+        out[i, 1] = (np.float64(rows[i] + first_y) + 0.5) * cell
+        out[i, 2] = z
+    return out
+
+
+@_compiled()
+def mark_view_flags(uv: np.ndarray, z: np.ndarray, depth: np.ndarray, clear: np.ndarray, occlusion_m: float,
+                    rows: np.ndarray, cols: np.ndarray, seen: np.ndarray, cleared: np.ndarray,
+                    known: np.ndarray) -> None:  # pragma: no cover (compiled: coverage cannot see inside)
+    """For each projected point (pixel coordinates ``uv``, optical-axis depth ``z``), set its
+    cell's flags (``rows``, ``cols`` of rasters ``seen``, ``cleared`` and ``known``): seen where its
+    pixel floor(uv) lies on the image and the rendered ``depth`` there is within ``occlusion_m`` of
+    z, for z > 0; cleared where ``clear`` holds that pixel; known in any case. A point off the
+    image is neither seen nor cleared; a coordinate that is not finite is off the image."""
     h, w = depth.shape
-    seen = np.zeros(n, np.bool_)
-    cleared = np.zeros(n, np.bool_)
-    for i in range(n):
+    for i in range(len(uv)):
         u, v = uv[i, 0], uv[i, 1]
+        is_seen, is_cleared = False, False
         if 0 <= u < w and 0 <= v < h:  # floor(u) in 0..w-1 exactly when u is in [0, w)
             col, row = int(np.floor(u)), int(np.floor(v))
-            cleared[i] = clear[row, col]
-            seen[i] = z[i] > 0 and abs(np.float64(depth[row, col]) - z[i]) <= occlusion_m
-    return seen, cleared
+            is_cleared = clear[row, col]
+            is_seen = z[i] > 0 and abs(np.float64(depth[row, col]) - z[i]) <= occlusion_m
+        seen[rows[i], cols[i]] = is_seen
+        cleared[rows[i], cols[i]] = is_cleared
+        known[rows[i], cols[i]] = True

@@ -518,11 +518,34 @@ def test_one_point_clearance_read_equals_the_array_read():
     assert [_cleared_at(clear, p) for p in points] == expected.tolist()
 
 
+def test_compiled_cell_gathers_equal_numpys():
+    """A raster's not-yet-known cells and their centre points, compiled, against the numpy steps
+    they replaced, to the bit: the points feed numpy's projection, whose pixels decide the flags."""
+    from refspatial.compiled import cell_points, unknown_cells
+    from refspatial.relations.free_space import CELL_M
+
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        shape = tuple(int(n) for n in rng.integers(1, 400, 2))
+        known = rng.random(shape) < rng.random()
+        n = int(rng.integers(0, 3000))
+        rows, cols = rng.integers(0, shape[0], n), rng.integers(0, shape[1], n)
+        todo = ~known[rows, cols]
+        got = unknown_cells(known, rows, cols)
+        assert np.array_equal(got[0], rows[todo]) and np.array_equal(got[1], cols[todo])
+        first = rng.integers(-500, 500, 2)
+        z = float(rng.uniform(-1, 2))
+        want = np.column_stack([(np.column_stack([cols + first[0], rows + first[1]]) + 0.5) * CELL_M,
+                                np.full(n, z)])
+        assert np.array_equal(cell_points(rows, cols, int(first[0]), int(first[1]), z, CELL_M), want.reshape(n, 3))
+
+
 def test_compiled_view_flags_equal_the_array_definitions():
-    """``compiled.seen_and_cleared`` (a view's first solve, every free cell at once) against the
-    whole-array occlusion and clearance readings: depths within, exactly at and past the margin,
-    points behind the camera, inside, on and past every edge of the image, far off, and not finite."""
-    from refspatial.compiled import seen_and_cleared
+    """``compiled.mark_view_flags`` (every free cell a solve meets) against the whole-array
+    occlusion and clearance readings: depths within, exactly at and past the margin, points behind
+    the camera, inside, on and past every edge of the image, far off, and not finite; each point's
+    flags land on its own cell, and every cell given is marked known."""
+    from refspatial.compiled import mark_view_flags
 
     # A margin of a power of two, so that a depth exactly that far from a rendered one exists:
     # there the test tells <= from <.
@@ -541,7 +564,14 @@ def test_compiled_view_flags_equal_the_array_definitions():
     z[::11] = 0.0
     with np.errstate(invalid="ignore"):  # numpy's cast of NaN and inf to integers
         expected = _unoccluded(depth, uv, z, margin), _cleared(clear, uv)
-    seen, cleared = seen_and_cleared(uv, z, depth, clear, margin)
+    shape = (70, 70)  # the points' cells, scattered over a raster with cells left untouched
+    cells = np.unravel_index(rng.permutation(shape[0] * shape[1])[:len(uv)], shape)
+    rasters = [np.zeros(shape, bool), np.ones(shape, bool), np.zeros(shape, bool)]  # seen, cleared, known
+    mark_view_flags(uv, z, depth, clear, margin, *cells, *rasters)
+    seen, cleared = rasters[0][cells], rasters[1][cells]
     assert np.array_equal(seen, expected[0]) and np.array_equal(cleared, expected[1])
+    assert rasters[2].sum() == len(uv) and rasters[2][cells].all()
+    untouched = ~rasters[2]
+    assert not rasters[0][untouched].any() and rasters[1][untouched].all()
     assert 0 < seen.sum() < len(uv) and 0 < cleared.sum() < len(uv)
     assert (np.abs(depth[rows, cols] - z) == margin)[seen].any()  # some seen exactly at the margin

@@ -32,8 +32,8 @@ import cv2
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from ..compiled import (BETWEEN, OFFSET, ON_TOP, SECTOR, convex_ring, in_regions, in_regions_grid, plane_cells,
-                        sector_cells, seen_and_cleared, strip_answer)
+from ..compiled import (BETWEEN, OFFSET, ON_TOP, SECTOR, cell_points, convex_ring, in_regions, in_regions_grid,
+                        mark_view_flags, plane_cells, sector_cells, strip_answer, unknown_cells)
 from ..scene import LEG_HALF_M, LEG_INSET_M
 from ..vector import column_bounds
 from .directional import corridor, squarely_between
@@ -589,22 +589,22 @@ class _Raster:
                 self._work_out(v, np.nonzero(self.free))
         if at_once:
             return self._flags  # every free cell is known, and solves ask only free cells
-        todo = ~self._known[cells]
-        if todo.any():
-            self._work_out(v, (cells[0][todo], cells[1][todo]))
+        todo = unknown_cells(self._known, cells[0], cells[1])
+        if len(todo[0]):
+            self._work_out(v, todo)
         return self._flags
 
     def _work_out(self, v: ViewFacts, cells: tuple[np.ndarray, np.ndarray]) -> None:
         """The seen and cleared flags of ``cells`` ((rows, columns) not yet known)."""
         seen, cleared, _ = self._flags
         rows, cols = cells
-        centres = (np.column_stack([cols + self.first[0], rows + self.first[1]]) + 0.5) * CELL_M
-        uv, depth = project(np.column_stack([centres, np.full(len(centres), self.z)]), v.K, v.T_world_cam)
-        # Every cell's occlusion and clearance in one compiled pass (a tabletop view's first solve
-        # asks about 9,000 cells: 256 us as a dozen numpy steps, 37 compiled).
-        seen[rows, cols], cleared[rows, cols] = seen_and_cleared(uv, depth, v.depth_m, image_clearance(v, self.support),
-                                                                 OCCLUSION_M)
-        self._known[rows, cols] = True
+        # The cells' centres are made, and their flags set, by compiled passes (a room's solves
+        # ask some 4,000 new cells each, 17 times a record: the gathers, stacks and scatters cost
+        # as much as numpy's projection between them, which stays numpy's for BLAS's bits).
+        points = cell_points(rows, cols, int(self.first[0]), int(self.first[1]), float(self.z), CELL_M)
+        uv, depth = project(points, v.K, v.T_world_cam)
+        mark_view_flags(uv, depth, v.depth_m, image_clearance(v, self.support), OCCLUSION_M, rows, cols,
+                        seen, cleared, self._known)
 
     def _clear_of(self, cells: np.ndarray, outline: np.ndarray, grow: float) -> None:
         """Clear the flags (a raster like ``free``) of the cells whose centres lie within the
@@ -811,7 +811,7 @@ def _disk_rectangles(n: int) -> tuple[tuple[int, int], ...]:
 
 def _cleared_at(clear: np.ndarray, uv: np.ndarray) -> bool:
     """Whether one image point (pixels) falls on a cleared pixel, in scalars (a solve asks it of its
-    answer): as ``compiled.seen_and_cleared`` reads every cell's, and the whole-array reading in
+    answer): as ``compiled.mark_view_flags`` reads every cell's, and the whole-array reading in
     the tests. A point off the image, or not finite, is not cleared."""
     x, y = float(uv[0]), float(uv[1])
     if not (math.isfinite(x) and math.isfinite(y)):
