@@ -161,7 +161,7 @@ def _swept(v: ViewFacts, constraints, raster: _Raster, support: int, z: float, f
         # Too little free room in the region's whole box, so in the region, whose free cells are
         # some of the box's (a third of the solves that find none end here).
         return None
-    free = (np.column_stack([cols + first[0], rows + first[1]]) + 0.5) * CELL_M
+    free = cell_points(rows, cols, int(first[0]), int(first[1]), z, CELL_M)[:, :2]  # the cells' centres
     inside = _in_regions(v, constraints, free)
     free = free[inside]
     area = float(len(free) * CELL_M**2)
